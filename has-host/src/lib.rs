@@ -1,0 +1,16 @@
+//! # has-host
+//!
+//! The host (std) side of hybrid aperture sensing: scenes and materials, the BVH ray tracer,
+//! propagation paths, echo synthesis, the imaging driver that feeds `has-dsp` frame by frame,
+//! fusion, surface reconstruction and metrics.
+//!
+//! Conventions: metres, seconds, hertz; positions `glam::Vec3` in one right-handed frame with z up;
+//! angles in radians inside, degrees only in reports.
+
+pub use has_dsp::geometry::{bistatic_range, wavelength_m, C_M_PER_S};
+
+pub mod material;
+pub mod scene;
+
+pub use material::Material;
+pub use scene::{Hit, Object, Scene, SceneError};

@@ -1,0 +1,283 @@
+//! A scene: named objects made of triangles, each object one [`Material`], and a BVH over all
+//! triangles for closest-hit and visibility queries.
+//!
+//! Triangles are stored flat (`triangles[i]`, owned by `objects[tri_object[i]]`); normals follow
+//! the counter-clockwise winding `(v1 − v0) × (v2 − v0)`, but queries are two-sided. The BVH is
+//! obvhs' compressed-wide BVH (CWBVH). Batched queries run across rays with rayon. Distances in
+//! metres.
+
+use std::time::Duration;
+
+use glam::{Vec3, Vec3A};
+use obvhs::{
+    cwbvh::{builder::build_cwbvh_from_tris, CwBvh},
+    ray::{Ray, RayHit},
+    triangle::Triangle,
+    BvhBuildParams,
+};
+use rayon::prelude::*;
+
+use crate::material::Material;
+
+/// Offset, in metres, by which secondary rays start off a surface and visibility rays stop
+/// short of their end point, so that a surface does not hide itself.
+pub const SURFACE_EPS_M: f32 = 1e-3;
+
+/// One object of a scene.
+#[derive(Clone, Debug)]
+pub struct Object {
+    /// Name, unique within the scene (e.g. `"factory"`, `"ground"`).
+    pub name: String,
+    /// Radio material of every face.
+    pub material: Material,
+    /// Faces, counter-clockwise seen from outside, in metres.
+    pub triangles: Vec<[Vec3; 3]>,
+}
+
+/// Result of a closest-hit query.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Hit {
+    /// Distance along the (unit) ray direction, metres.
+    pub t: f32,
+    /// Index into [`Scene::triangles`].
+    pub triangle: u32,
+    /// Index into [`Scene::objects`].
+    pub object: u32,
+    /// Hit point.
+    pub point: Vec3,
+    /// Unit geometric normal of the hit face (winding order, not flipped toward the ray).
+    pub normal: Vec3,
+}
+
+/// Triangles of several objects with a BVH over them.
+pub struct Scene {
+    /// The objects (names, materials, faces as given).
+    pub objects: Vec<Object>,
+    /// Every triangle of every object, flattened.
+    pub triangles: Vec<Triangle>,
+    /// Owning object of each triangle.
+    pub tri_object: Vec<u32>,
+    bvh: CwBvh,
+    /// Time spent building the BVH.
+    pub build_time: Duration,
+}
+
+/// Why a scene could not be built.
+#[derive(Debug, thiserror::Error)]
+pub enum SceneError {
+    /// A vertex coordinate was NaN or infinite.
+    #[error("object '{object}': vertex {vertex} of triangle {triangle} is not finite ({value:?})")]
+    NonFiniteVertex {
+        /// Object name.
+        object: String,
+        /// Triangle index within the object.
+        triangle: usize,
+        /// Vertex 0..3.
+        vertex: usize,
+        /// The vertex.
+        value: Vec3,
+    },
+    /// The scene has no triangles.
+    #[error("scene has no triangles")]
+    Empty,
+}
+
+impl Scene {
+    /// Builds the scene and its BVH. Degenerate (zero-area) triangles are kept in `objects` but
+    /// left out of the BVH; non-finite vertices are an error.
+    pub fn new(objects: Vec<Object>) -> Result<Scene, SceneError> {
+        let mut triangles = Vec::new();
+        let mut tri_object = Vec::new();
+        for (oi, obj) in objects.iter().enumerate() {
+            for (ti, tri) in obj.triangles.iter().enumerate() {
+                for (vi, v) in tri.iter().enumerate() {
+                    if !v.is_finite() {
+                        return Err(SceneError::NonFiniteVertex {
+                            object: obj.name.clone(),
+                            triangle: ti,
+                            vertex: vi,
+                            value: *v,
+                        });
+                    }
+                }
+                if (tri[1] - tri[0]).cross(tri[2] - tri[0]).length_squared() <= 0.0 {
+                    continue;
+                }
+                triangles.push(Triangle {
+                    v0: tri[0].into(),
+                    v1: tri[1].into(),
+                    v2: tri[2].into(),
+                });
+                tri_object.push(oi as u32);
+            }
+        }
+        if triangles.is_empty() {
+            return Err(SceneError::Empty);
+        }
+        let start = std::time::Instant::now();
+        let mut core = Duration::default();
+        let bvh = build_cwbvh_from_tris(&triangles, BvhBuildParams::medium_build(), &mut core);
+        let build_time = start.elapsed();
+        Ok(Scene {
+            objects,
+            triangles,
+            tri_object,
+            bvh,
+            build_time,
+        })
+    }
+
+    /// Number of triangles in the BVH.
+    pub fn triangle_count(&self) -> usize {
+        self.triangles.len()
+    }
+
+    /// Material of triangle `tri`.
+    pub fn material_of(&self, tri: u32) -> Material {
+        self.objects[self.tri_object[tri as usize] as usize].material
+    }
+
+    /// Unit geometric normal of triangle `tri` (winding order).
+    pub fn normal_of(&self, tri: u32) -> Vec3 {
+        Vec3::from(self.triangles[tri as usize].compute_normal())
+    }
+
+    /// Closest hit along `origin + t·dir` for `t` in `[tmin, tmax]`; `dir` need not be unit
+    /// length but `t` is then in units of `|dir|`.
+    pub fn closest_hit(&self, origin: Vec3, dir: Vec3, tmin: f32, tmax: f32) -> Option<Hit> {
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), tmin, tmax);
+        let mut hit = RayHit::none();
+        let tris = &self.triangles;
+        let idx = &self.bvh.primitive_indices;
+        if self
+            .bvh
+            .ray_traverse(ray, &mut hit, |r, id| tris[idx[id] as usize].intersect(r))
+        {
+            let tri = idx[hit.primitive_id as usize];
+            Some(Hit {
+                t: hit.t,
+                triangle: tri,
+                object: self.tri_object[tri as usize],
+                point: origin + dir * hit.t,
+                normal: self.normal_of(tri),
+            })
+        } else {
+            None
+        }
+    }
+
+    /// True if the open segment from `a` to `b` (shortened by [`SURFACE_EPS_M`] at both ends)
+    /// crosses no triangle.
+    pub fn visible(&self, a: Vec3, b: Vec3) -> bool {
+        let d = b - a;
+        let len = d.length();
+        if len <= 2.0 * SURFACE_EPS_M {
+            return true;
+        }
+        let dir = d / len;
+        let ray = Ray::new(
+            Vec3A::from(a),
+            Vec3A::from(dir),
+            SURFACE_EPS_M,
+            len - SURFACE_EPS_M,
+        );
+        let tris = &self.triangles;
+        let idx = &self.bvh.primitive_indices;
+        self.bvh
+            .ray_traverse_miss(ray, |r, id| tris[idx[id] as usize].intersect(r))
+    }
+
+    /// [`Scene::closest_hit`] for many rays `(origin, unit dir)` at once, in parallel.
+    pub fn closest_hits(&self, rays: &[(Vec3, Vec3)], tmax: f32) -> Vec<Option<Hit>> {
+        rays.par_iter()
+            .map(|&(o, d)| self.closest_hit(o, d, 0.0, tmax))
+            .collect()
+    }
+
+    /// [`Scene::visible`] for many segments at once, in parallel.
+    pub fn visible_many(&self, segments: &[(Vec3, Vec3)]) -> Vec<bool> {
+        segments
+            .par_iter()
+            .map(|&(a, b)| self.visible(a, b))
+            .collect()
+    }
+
+    /// Axis-aligned bounds `(min, max)` of all triangles.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for t in &self.triangles {
+            for v in [t.v0, t.v1, t.v2] {
+                lo = lo.min(v.into());
+                hi = hi.max(v.into());
+            }
+        }
+        (lo, hi)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn quad(z: f32, half: f32) -> Vec<[Vec3; 3]> {
+        let a = Vec3::new(-half, -half, z);
+        let b = Vec3::new(half, -half, z);
+        let c = Vec3::new(half, half, z);
+        let d = Vec3::new(-half, half, z);
+        vec![[a, b, c], [a, c, d]]
+    }
+
+    fn plate() -> Scene {
+        Scene::new(vec![Object {
+            name: "plate".into(),
+            material: Material::Concrete,
+            triangles: quad(0.0, 10.0),
+        }])
+        .unwrap()
+    }
+
+    #[test]
+    fn closest_hit_finds_plate_below() {
+        let s = plate();
+        let h = s
+            .closest_hit(Vec3::new(1.0, 2.0, 5.0), Vec3::NEG_Z, 0.0, f32::INFINITY)
+            .unwrap();
+        assert!((h.t - 5.0).abs() < 1e-5);
+        assert!(h.point.z.abs() < 1e-5);
+        assert_eq!(h.normal, Vec3::Z);
+        assert_eq!(s.material_of(h.triangle), Material::Concrete);
+        assert!(s
+            .closest_hit(Vec3::new(1.0, 2.0, 5.0), Vec3::Z, 0.0, f32::INFINITY)
+            .is_none());
+    }
+
+    #[test]
+    fn plate_blocks_visibility_between_its_sides() {
+        let s = plate();
+        assert!(!s.visible(Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.5, 0.0, -1.0)));
+        assert!(s.visible(Vec3::new(0.0, 0.0, 1.0), Vec3::new(5.0, 0.0, 2.0)));
+        // Points on the surface see each other along it is not asked; a point just above sees
+        // a point on the surface (the end is shortened by SURFACE_EPS_M).
+        assert!(s.visible(Vec3::new(0.0, 0.0, 1.0), Vec3::new(3.0, 0.0, 0.0)));
+        let batch = s.visible_many(&[
+            (Vec3::new(0.0, 0.0, 1.0), Vec3::new(0.5, 0.0, -1.0)),
+            (Vec3::new(0.0, 0.0, 1.0), Vec3::new(5.0, 0.0, 2.0)),
+        ]);
+        assert_eq!(batch, vec![false, true]);
+    }
+
+    #[test]
+    fn non_finite_vertex_is_an_error_naming_object() {
+        let mut tris = quad(0.0, 1.0);
+        tris[1][2].x = f32::NAN;
+        let err = Scene::new(vec![Object {
+            name: "wall".into(),
+            material: Material::Brick,
+            triangles: tris,
+        }])
+        .err()
+        .unwrap();
+        assert!(err.to_string().contains("object 'wall'"), "{err}");
+    }
+}

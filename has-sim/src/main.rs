@@ -1,0 +1,62 @@
+//! `has-sim`: runs hybrid-aperture-sensing scenarios end to end and reports.
+//!
+//! The binary is thin: it parses arguments, shows progress, writes files and prints summaries;
+//! the work lives in `has-host` and `has-dsp`. Every failure ends the process with exit code 1 and
+//! one readable line on stderr.
+
+use clap::{Parser, Subcommand};
+
+/// Hybrid aperture sensing simulator.
+#[derive(Parser)]
+#[command(version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// List the ITU-R P.2040 radio materials with εr, σ and complex permittivity at a frequency.
+    Materials {
+        /// Frequency in GHz.
+        #[arg(long, default_value_t = 10.0)]
+        freq_ghz: f64,
+    },
+}
+
+fn main() {
+    let cli = Cli::parse();
+    if let Err(e) = run(cli) {
+        eprintln!("has-sim: error: {e:#}");
+        std::process::exit(1);
+    }
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Materials { freq_ghz } => materials(freq_ghz),
+    }
+}
+
+fn materials(freq_ghz: f64) -> anyhow::Result<()> {
+    if !(freq_ghz.is_finite() && freq_ghz > 0.0) {
+        anyhow::bail!("--freq-ghz: {freq_ghz} is not a positive frequency");
+    }
+    let f = freq_ghz * 1e9;
+    println!(
+        "{:<20} {:>8} {:>12} {:>22}",
+        "material", "εr", "σ (S/m)", "η = εr − jσ/(ε0ω)"
+    );
+    for m in has_host::Material::all() {
+        let eta = m.complex_permittivity(f);
+        println!(
+            "{:<20} {:>8.3} {:>12.4e} {:>10.3} {:>+11.3e}j",
+            format!("itu_{}", m.name()),
+            m.relative_permittivity(f),
+            m.conductivity(f),
+            eta.re,
+            eta.im
+        );
+    }
+    Ok(())
+}

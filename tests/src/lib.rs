@@ -1,0 +1,1 @@
+//! Cross-crate and property tests of `has`; the tests live in `tests/tests/`.
