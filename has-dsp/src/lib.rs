@@ -14,6 +14,8 @@
 pub mod error;
 pub mod fixed;
 pub mod geometry;
+pub mod linalg;
+pub mod template;
 
 pub use error::DspError;
 pub use fixed::{Q15, Q31};
