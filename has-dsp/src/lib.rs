@@ -15,6 +15,7 @@ pub mod error;
 pub mod fixed;
 pub mod geometry;
 pub mod linalg;
+pub mod ofdm;
 pub mod template;
 
 pub use error::DspError;
