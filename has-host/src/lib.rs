@@ -12,6 +12,7 @@ pub use has_dsp::geometry::{bistatic_range, wavelength_m, C_M_PER_S};
 pub mod material;
 pub mod propagation;
 pub mod scene;
+pub mod shapes;
 
 pub use material::Material;
 pub use scene::{Hit, Object, Scene, SceneError};
