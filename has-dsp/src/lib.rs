@@ -11,11 +11,13 @@
 //! phase of the paper's eq. 1.
 #![cfg_attr(not(test), no_std)]
 
+pub mod bp;
 pub mod error;
 pub mod fixed;
 pub mod geometry;
 pub mod linalg;
 pub mod ofdm;
+pub mod phase;
 pub mod template;
 
 pub use error::DspError;

@@ -1,0 +1,227 @@
+//! The hot loops of back-projection: chunked, `r_V` reused across a snapshot's elements.
+//!
+//! Per chunk of [`CHUNK`] voxels: grid-local coordinates and `r_V` go to stack arrays
+//! (struct of arrays). Per element, pass A computes for every voxel of the chunk the bistatic
+//! range, the fractional bin and the rotor (no gathers, no branches: it vectorises); pass B reads
+//! the profile (a gather) and accumulates. Inputs were validated by the caller (`mod.rs`): finite
+//! positions, `profiles.len() == rx.len() · profile_len`, the tile inside the grid.
+
+use super::{Backprojector, Interp, PhaseEval, Snapshot, VoxelGrid, CHUNK};
+use crate::fixed::CQ15;
+use crate::phase::{floor_f32, rotor_f32, rotor_f32_libm, rotor_q15};
+use num_complex::Complex;
+
+/// Fills grid-local coordinates of voxels `start .. start + px.len()` (all slices equal length).
+fn fill_positions(grid: &VoxelGrid, start: usize, px: &mut [f32], py: &mut [f32], pz: &mut [f32]) {
+    let [nx, ny, _] = grid.dims;
+    let mut ix = start % nx;
+    let mut iy = (start / nx) % ny;
+    let mut iz = start / (nx * ny);
+    for ((x, y), z) in px.iter_mut().zip(py.iter_mut()).zip(pz.iter_mut()) {
+        *x = grid.spacing.x * ix as f32;
+        *y = grid.spacing.y * iy as f32;
+        *z = grid.spacing.z * iz as f32;
+        ix += 1;
+        if ix == nx {
+            ix = 0;
+            iy += 1;
+            if iy == ny {
+                iy = 0;
+                iz += 1;
+            }
+        }
+    }
+}
+
+/// Chunk geometry: grid-local coordinates and `r_V` of up to [`CHUNK`] voxels.
+struct Geo {
+    px: [f32; CHUNK],
+    py: [f32; CHUNK],
+    pz: [f32; CHUNK],
+    rv: [f32; CHUNK],
+}
+
+impl Geo {
+    fn new() -> Self {
+        Self {
+            px: [0.0; CHUNK],
+            py: [0.0; CHUNK],
+            pz: [0.0; CHUNK],
+            rv: [0.0; CHUNK],
+        }
+    }
+
+    /// Coordinates and `r_V` of voxels `start .. start + n` (`n ≤ CHUNK`).
+    fn load(&mut self, grid: &VoxelGrid, start: usize, n: usize, tx: glam::Vec3) {
+        let (px, py, pz) = (&mut self.px[..n], &mut self.py[..n], &mut self.pz[..n]);
+        fill_positions(grid, start, px, py, pz);
+        for (((rv, &x), &y), &z) in self.rv[..n].iter_mut().zip(&*px).zip(&*py).zip(&*pz) {
+            let (dx, dy, dz) = (x - tx.x, y - tx.y, z - tx.z);
+            *rv = libm::sqrtf(dx * dx + dy * dy + dz * dz);
+        }
+    }
+
+    /// Pass A of both paths: the bistatic range `r_V + r_R` of voxel `k < n` for receiver `a`,
+    /// handed to `f(k, r)`.
+    #[inline(always)]
+    fn ranges(&self, n: usize, a: glam::Vec3, mut f: impl FnMut(usize, f32)) {
+        let (px, py, pz, rv) = (&self.px[..n], &self.py[..n], &self.pz[..n], &self.rv[..n]);
+        for k in 0..n {
+            let (dx, dy, dz) = (px[k] - a.x, py[k] - a.y, pz[k] - a.z);
+            f(k, rv[k] + libm::sqrtf(dx * dx + dy * dy + dz * dz));
+        }
+    }
+}
+
+/// `profile` read at fractional bin `x`, zero outside (linear: tapering over one bin).
+#[inline(always)]
+fn interp_f32<const LINEAR: bool>(profile: &[Complex<f32>], x: f32) -> Complex<f32> {
+    let zero = Complex::new(0.0, 0.0);
+    if LINEAR {
+        let fl = floor_f32(x);
+        let w = x - fl;
+        // A negative index wraps to a huge usize and reads as zero, as does one past the end.
+        let i = fl as isize as usize;
+        let s0 = profile.get(i).copied().unwrap_or(zero);
+        let s1 = profile.get(i.wrapping_add(1)).copied().unwrap_or(zero);
+        s0 + (s1 - s0) * w
+    } else {
+        let i = floor_f32(x + 0.5) as isize as usize;
+        profile.get(i).copied().unwrap_or(zero)
+    }
+}
+
+pub(super) fn run_f32(
+    bp: &Backprojector,
+    first: usize,
+    acc: &mut [Complex<f32>],
+    snap: &Snapshot<'_, Complex<f32>>,
+) {
+    match (bp.cfg.interp, bp.cfg.phase) {
+        (Interp::Linear, PhaseEval::Poly) => run_f32_impl::<true, true>(bp, first, acc, snap),
+        (Interp::Linear, PhaseEval::Libm) => run_f32_impl::<true, false>(bp, first, acc, snap),
+        (Interp::Nearest, PhaseEval::Poly) => run_f32_impl::<false, true>(bp, first, acc, snap),
+        (Interp::Nearest, PhaseEval::Libm) => run_f32_impl::<false, false>(bp, first, acc, snap),
+    }
+}
+
+fn run_f32_impl<const LINEAR: bool, const POLY: bool>(
+    bp: &Backprojector,
+    first: usize,
+    acc: &mut [Complex<f32>],
+    snap: &Snapshot<'_, Complex<f32>>,
+) {
+    let (r0, inv_dr, inv_lambda) = (bp.cfg.r0_m, bp.inv_dr, bp.inv_lambda);
+    let len = snap.profile_len;
+    let mut geo = Geo::new();
+    let (mut xs, mut re, mut im) = ([0f32; CHUNK], [0f32; CHUNK], [0f32; CHUNK]);
+    for (ci, acc) in acc.chunks_mut(CHUNK).enumerate() {
+        let n = acc.len();
+        geo.load(&bp.cfg.grid, first + ci * CHUNK, n, snap.tx);
+        for (a, profile) in snap.rx.iter().zip(snap.profiles.chunks_exact(len)) {
+            // Pass A: range → fractional bin and rotor.
+            geo.ranges(n, *a, |k, r| {
+                xs[k] = (r - r0) * inv_dr;
+                let z = if POLY {
+                    rotor_f32(r * inv_lambda)
+                } else {
+                    rotor_f32_libm(r * inv_lambda)
+                };
+                re[k] = z.re;
+                im[k] = z.im;
+            });
+            // Pass B: gather, interpolate, rotate, accumulate.
+            for (((acc, &x), &re), &im) in acc.iter_mut().zip(&xs[..n]).zip(&re[..n]).zip(&im[..n])
+            {
+                *acc += interp_f32::<LINEAR>(profile, x) * Complex::new(re, im);
+            }
+        }
+    }
+}
+
+/// Q15 sample `(re, im)` of `profile` at fractional bin `x`, zero outside. Linear: `s0 +
+/// round((s1 − s0)·w)` with `w` the Q15 fraction (`(s1 − s0)·w` < 2¹⁶·2¹⁵ fits `i32`), result
+/// between `s0` and `s1` so within `i16` range.
+#[inline(always)]
+fn interp_q15<const LINEAR: bool>(profile: &[CQ15], x: f32) -> (i32, i32) {
+    let get = |i: usize| {
+        profile
+            .get(i)
+            .map_or((0, 0), |z| (z.re.to_bits() as i32, z.im.to_bits() as i32))
+    };
+    if LINEAR {
+        let fl = floor_f32(x);
+        // w in [0, 32767]: x − fl < 1 exactly, and `as` truncates.
+        let w = ((x - fl) * 32768.0) as i32;
+        let i = fl as isize as usize;
+        let (a_re, a_im) = get(i);
+        let (b_re, b_im) = get(i.wrapping_add(1));
+        (
+            a_re + (((b_re - a_re) * w + (1 << 14)) >> 15),
+            a_im + (((b_im - a_im) * w + (1 << 14)) >> 15),
+        )
+    } else {
+        get(floor_f32(x + 0.5) as isize as usize)
+    }
+}
+
+pub(super) fn run_q15(
+    bp: &Backprojector,
+    first: usize,
+    acc: &mut [Complex<i64>],
+    acc_exp: i32,
+    snap: &Snapshot<'_, CQ15>,
+    exponents: &[i32],
+) {
+    if bp.cfg.interp == Interp::Linear {
+        run_q15_impl::<true>(bp, first, acc, acc_exp, snap, exponents)
+    } else {
+        run_q15_impl::<false>(bp, first, acc, acc_exp, snap, exponents)
+    }
+}
+
+fn run_q15_impl<const LINEAR: bool>(
+    bp: &Backprojector,
+    first: usize,
+    acc: &mut [Complex<i64>],
+    acc_exp: i32,
+    snap: &Snapshot<'_, CQ15>,
+    exponents: &[i32],
+) {
+    let (r0, inv_dr, inv_lambda) = (bp.cfg.r0_m, bp.inv_dr, bp.inv_lambda);
+    let len = snap.profile_len;
+    let mut geo = Geo::new();
+    let (mut xs, mut ts) = ([0f32; CHUNK], [0f32; CHUNK]);
+    for (ci, acc) in acc.chunks_mut(CHUNK).enumerate() {
+        let n = acc.len();
+        geo.load(&bp.cfg.grid, first + ci * CHUNK, n, snap.tx);
+        for ((a, profile), &e) in snap
+            .rx
+            .iter()
+            .zip(snap.profiles.chunks_exact(len))
+            .zip(exponents)
+        {
+            // acc_exp ≥ e (the state was raised to the snapshot's largest exponent). A shift of
+            // 32 or more rounds every |product| < 2³¹ to zero: skip the element.
+            let shift = (acc_exp - e) as u32;
+            if shift >= 32 {
+                continue;
+            }
+            let half = if shift == 0 { 0 } else { 1i64 << (shift - 1) };
+            geo.ranges(n, *a, |k, r| {
+                xs[k] = (r - r0) * inv_dr;
+                ts[k] = r * inv_lambda;
+            });
+            for ((acc, &x), &t) in acc.iter_mut().zip(&xs[..n]).zip(&ts[..n]) {
+                let (s_re, s_im) = interp_q15::<LINEAR>(profile, x);
+                let (c_re, c_im) = rotor_q15(t);
+                let (c_re, c_im) = (c_re as i32, c_im as i32);
+                // |s| components ≤ 2¹⁵, rotor components ≤ 32767: each sum < 2³¹.
+                let p_re = s_re * c_re - s_im * c_im;
+                let p_im = s_re * c_im + s_im * c_re;
+                acc.re += (p_re as i64 + half) >> shift;
+                acc.im += (p_im as i64 + half) >> shift;
+            }
+        }
+    }
+}

@@ -1,0 +1,685 @@
+//! Unit tests of back-projection: focusing of analytic point echoes, equivalence of the batched,
+//! tiled and single-profile entry points, fixed point against float, bad input.
+
+extern crate std;
+use super::*;
+use crate::fixed::{cq15_from_c32, Q15};
+use std::vec;
+use std::vec::Vec;
+
+const LAMBDA: f32 = 0.03;
+/// Range resolution (bistatic path length) c/B of a 1.5 GHz pulse, and two bins per resolution
+/// cell (zero padding ×2).
+const RES: f64 = 299_792_458.0 / 1.5e9;
+const DR: f32 = (RES / 2.0) as f32;
+const BINS: usize = 256;
+
+fn config(interp: Interp, phase: PhaseEval) -> BpConfig {
+    BpConfig {
+        grid: VoxelGrid {
+            origin: Vec3::new(100.0, -50.0, 2.0),
+            spacing: Vec3::splat(0.3),
+            dims: [8, 8, 8],
+        },
+        wavelength_m: LAMBDA,
+        r0_m: 0.0,
+        dr_m: DR,
+        interp,
+        phase,
+    }
+}
+
+/// Transmitter positions: a 3 m horizontal virtual aperture along x, 4 m in front of the grid,
+/// on the ground; grid-local metres.
+fn tx_positions() -> Vec<Vec3> {
+    (0..24)
+        .map(|k| Vec3::new(-0.5 + 3.0 * k as f32 / 23.0, -4.0, 0.0))
+        .collect()
+}
+
+/// Receiver elements: an 8 × 8 planar array in the x–z plane, 0.1 m pitch, elevated at z = 3 m.
+fn rx_positions() -> Vec<Vec3> {
+    let mut v = Vec::new();
+    for iz in 0..8 {
+        for ix in 0..8 {
+            v.push(Vec3::new(
+                0.6 + 0.1 * ix as f32,
+                -5.0,
+                3.0 + 0.1 * iz as f32,
+            ));
+        }
+    }
+    v
+}
+
+fn dist64(a: Vec3, b: [f64; 3]) -> f64 {
+    let d = [a.x as f64 - b[0], a.y as f64 - b[1], a.z as f64 - b[2]];
+    libm::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2])
+}
+
+fn v64(v: Vec3) -> [f64; 3] {
+    [v.x as f64, v.y as f64, v.z as f64]
+}
+
+/// Grid-local `f64` position of voxel `(ix, iy, iz)` of the test grid.
+fn voxel64(bp: &Backprojector, c: [usize; 3]) -> [f64; 3] {
+    let s = bp.grid().spacing;
+    [
+        s.x as f64 * c[0] as f64,
+        s.y as f64 * c[1] as f64,
+        s.z as f64 * c[2] as f64,
+    ]
+}
+
+/// Profiles of one snapshot (element-major) for scatterers `(voxel coords, amplitude)`.
+fn snapshot_profiles(
+    bp: &Backprojector,
+    tx: Vec3,
+    rx: &[Vec3],
+    targets: &[([usize; 3], f64)],
+) -> Vec<Complex<f32>> {
+    let mut out = vec![Complex::new(0.0, 0.0); rx.len() * BINS];
+    for (a, prof) in rx.iter().zip(out.chunks_exact_mut(BINS)) {
+        for &(c, amp) in targets {
+            let p = voxel64(bp, c);
+            let r = dist64(tx, p) + dist64(*a, p);
+            add_point_echo(
+                prof,
+                0.0,
+                DR as f64,
+                LAMBDA as f64,
+                RES,
+                r,
+                Complex::new(amp, 0.0),
+            )
+            .unwrap();
+        }
+    }
+    out
+}
+
+fn image_f32(bp: &Backprojector, targets: &[([usize; 3], f64)]) -> Vec<Complex<f32>> {
+    let rx = rx_positions();
+    let mut buf = vec![Complex::new(0.0, 0.0); bp.voxels()];
+    let mut acc = AccF32::new(bp, &mut buf).unwrap();
+    for tx in tx_positions() {
+        let profiles = snapshot_profiles(bp, tx, &rx, targets);
+        let snap = Snapshot {
+            tx,
+            rx: &rx,
+            profiles: &profiles,
+            profile_len: BINS,
+        };
+        bp.push_snapshot(&mut acc, &snap).unwrap();
+    }
+    assert_eq!(acc.pushes(), (tx_positions().len() * rx.len()) as u64);
+    buf
+}
+
+fn index(bp: &Backprojector, c: [usize; 3]) -> usize {
+    let [nx, ny, _] = bp.grid().dims;
+    c[0] + nx * (c[1] + ny * c[2])
+}
+
+fn argmax(img: &[Complex<f32>]) -> usize {
+    let mut best = 0;
+    for (i, z) in img.iter().enumerate() {
+        if z.norm() > img[best].norm() {
+            best = i;
+        }
+    }
+    best
+}
+
+/// Each push adds, at the scatterer's own voxel, the sinc pulse read at most a quarter of a
+/// resolution cell off its peak (two bins per cell: nearest is ≤ ½ bin off; linear between two
+/// samples ≤ ½ bin off averages two values ≥ sinc(¼)) times a phase that cancels exactly, so
+/// `|I| ≥ sinc(¼)·N·a = 0.9003·N·a` up to the f32 phase error (< 10⁻³ relative, see
+/// `f32_matches_f64_reference_within_derived_ser`).
+#[test]
+fn point_scatterer_focuses_on_its_voxel() {
+    let pushes = (tx_positions().len() * rx_positions().len()) as f32;
+    for (interp, phase) in [
+        (Interp::Linear, PhaseEval::Poly),
+        (Interp::Nearest, PhaseEval::Libm),
+    ] {
+        let bp = Backprojector::new(config(interp, phase)).unwrap();
+        for c in [[2, 3, 4], [5, 6, 1], [7, 0, 7], [0, 7, 0]] {
+            let img = image_f32(&bp, &[(c, 1.0)]);
+            let want = index(&bp, c);
+            assert_eq!(
+                argmax(&img),
+                want,
+                "{interp:?} {phase:?} scatterer at {c:?}"
+            );
+            let peak = img[want].norm() / pushes;
+            assert!(peak >= 0.9003 * 0.999, "{interp:?}: peak/N = {peak}");
+            assert!(peak <= 1.0 + 1e-3, "{interp:?}: peak/N = {peak}");
+        }
+    }
+}
+
+#[test]
+fn three_point_scatterers_each_focus_at_a_local_maximum() {
+    let bp = Backprojector::new(config(Interp::Linear, PhaseEval::Poly)).unwrap();
+    let targets = [([2, 3, 4], 1.0), ([5, 6, 1], 0.7), ([6, 1, 6], 0.5)];
+    let img = image_f32(&bp, &targets);
+    assert_eq!(argmax(&img), index(&bp, targets[0].0));
+    for (c, _) in targets {
+        let v = img[index(&bp, c)].norm();
+        for dz in -1i32..=1 {
+            for dy in -1i32..=1 {
+                for dx in -1i32..=1 {
+                    let n = [c[0] as i32 + dx, c[1] as i32 + dy, c[2] as i32 + dz];
+                    if n.iter().any(|&q| !(0..8).contains(&q)) || (dx, dy, dz) == (0, 0, 0) {
+                        continue;
+                    }
+                    let nb = img[index(&bp, [n[0] as usize, n[1] as usize, n[2] as usize])];
+                    assert!(nb.norm() < v, "neighbour {n:?} of {c:?} is brighter");
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn snapshot_single_pushes_and_tiles_agree_bit_for_bit() {
+    let bp = Backprojector::new(config(Interp::Linear, PhaseEval::Poly)).unwrap();
+    let rx = rx_positions();
+    let tx = tx_positions()[5];
+    let profiles = snapshot_profiles(&bp, tx, &rx, &[([3, 3, 3], 1.0), ([1, 6, 2], 0.4)]);
+    let snap = Snapshot {
+        tx,
+        rx: &rx,
+        profiles: &profiles,
+        profile_len: BINS,
+    };
+    let mut whole = vec![Complex::new(0.0, 0.0); bp.voxels()];
+    let mut acc = AccF32::new(&bp, &mut whole).unwrap();
+    bp.push_snapshot(&mut acc, &snap).unwrap();
+
+    let mut single = vec![Complex::new(0.0, 0.0); bp.voxels()];
+    let mut acc = AccF32::new(&bp, &mut single).unwrap();
+    for (a, p) in rx.iter().zip(profiles.chunks_exact(BINS)) {
+        bp.push(&mut acc, p, tx, *a).unwrap();
+    }
+    assert_eq!(whole, single);
+
+    // Uneven tiles (not multiples of CHUNK nor of a grid row).
+    let mut tiled = vec![Complex::new(0.0, 0.0); bp.voxels()];
+    let mut first = 0;
+    for t in tiled.chunks_mut(77) {
+        let len = t.len();
+        let mut acc = AccF32::tile(&bp, first, t).unwrap();
+        bp.push_snapshot(&mut acc, &snap).unwrap();
+        first += len;
+    }
+    assert_eq!(whole, tiled);
+}
+
+/// Sum over the test aperture of `|s_p(voxel)|` per voxel, in f64 (linear interpolation of
+/// `|profile|`): the worst-case scale of per-update relative errors at each voxel.
+fn magnitude_sums(bp: &Backprojector, targets: &[([usize; 3], f64)]) -> Vec<f64> {
+    let rx = rx_positions();
+    let mut m = vec![0.0f64; bp.voxels()];
+    for tx in tx_positions() {
+        let profiles = snapshot_profiles(bp, tx, &rx, targets);
+        for (a, prof) in rx.iter().zip(profiles.chunks_exact(BINS)) {
+            for (i, mi) in m.iter_mut().enumerate() {
+                let c = bp.grid().coords(i).unwrap();
+                let p = voxel64(bp, c);
+                let x = (dist64(tx, p) + dist64(*a, p)) / DR as f64;
+                let fl = libm::floor(x);
+                let at = |j: f64| {
+                    prof.get(j as usize)
+                        .filter(|_| j >= 0.0)
+                        .map_or(0.0, |z| z.norm() as f64)
+                };
+                *mi += at(fl).max(at(fl + 1.0));
+            }
+        }
+    }
+    m
+}
+
+fn image_f64(bp: &Backprojector, targets: &[([usize; 3], f64)]) -> Vec<Complex<f64>> {
+    let rx = rx_positions();
+    let mut img = vec![Complex::new(0.0, 0.0); bp.voxels()];
+    for tx in tx_positions() {
+        let profiles = snapshot_profiles(bp, tx, &rx, targets);
+        for (a, p) in rx.iter().zip(profiles.chunks_exact(BINS)) {
+            bp.push_reference_f64(&mut img, p, v64(tx), v64(*a))
+                .unwrap();
+        }
+    }
+    img
+}
+
+/// Worst-case per-update relative error of the f32 path at these ranges (r ≤ 14 m, λ = 3 cm):
+/// `r_V`, `r_R` each ≤ 2 ulp (squares, sum, sqrt) and their sum ½ ulp: |δr| ≤ 3·ulp(8 m)... ≤
+/// 3·9.5·10⁻⁷ m → 2π·δr/λ ≤ 6·10⁻⁴ rad; `t = r·(1/λ)` adds ½ ulp(467) + t·2⁻²⁴ ≤ 4.3·10⁻⁵
+/// cycles = 2.7·10⁻⁴ rad; the rotor 2·10⁻⁶ (poly) or ~10⁻⁷ (libm); interpolation weights and
+/// the complex multiply a few 10⁻⁷; f32 summation of N = 1536 terms ≤ N·2⁻²⁴ ≈ 9·10⁻⁵.
+/// Total ε ≤ 10⁻³. The image error at voxel v is then ≤ ε·M(v), M(v) = Σ_p |s_p(v)|, so
+/// SER ≥ 10·log10(Σ|I_ref|² / (ε²·Σ M²)).
+#[test]
+fn f32_matches_f64_reference_within_derived_ser() {
+    let targets = [([2, 3, 4], 1.0), ([5, 6, 1], 0.7), ([6, 1, 6], 0.5)];
+    for (interp, phase) in [
+        (Interp::Linear, PhaseEval::Poly),
+        (Interp::Linear, PhaseEval::Libm),
+        (Interp::Nearest, PhaseEval::Poly),
+    ] {
+        let bp = Backprojector::new(config(interp, phase)).unwrap();
+        let img = image_f32(&bp, &targets);
+        let reference = image_f64(&bp, &targets);
+        let m = magnitude_sums(&bp, &targets);
+        let sig: f64 = reference.iter().map(|z| z.norm_sqr()).sum();
+        let eps = 1e-3;
+        let bound = 10.0 * libm::log10(sig / (eps * eps * m.iter().map(|x| x * x).sum::<f64>()));
+        let ser = ser_db(&img, &reference).unwrap();
+        assert!(
+            ser >= bound,
+            "{interp:?} {phase:?}: SER {ser:.1} dB < bound {bound:.1} dB"
+        );
+        std::println!("{interp:?} {phase:?}: SER {ser:.1} dB (worst-case bound {bound:.1} dB)");
+    }
+}
+
+#[test]
+fn naive_loop_matches_fast_path() {
+    // Both read the same samples; they differ only in rounding (naive divides by λ and dr,
+    // computes positions from the index each time, uses sincosf): the same ε = 10⁻³ budget as
+    // against f64 applies to each, so their SER against each other is ≥ bound − 6 dB.
+    let bp = Backprojector::new(config(Interp::Linear, PhaseEval::Libm)).unwrap();
+    let targets = [([2, 3, 4], 1.0)];
+    let rx = &rx_positions()[..8];
+    let mut fast = vec![Complex::new(0.0, 0.0); bp.voxels()];
+    let mut naive = vec![Complex::new(0.0, 0.0); bp.voxels()];
+    {
+        let mut af = AccF32::new(&bp, &mut fast).unwrap();
+        let mut an = AccF32::new(&bp, &mut naive).unwrap();
+        for tx in tx_positions() {
+            let profiles = snapshot_profiles(&bp, tx, rx, &targets);
+            for (a, p) in rx.iter().zip(profiles.chunks_exact(BINS)) {
+                bp.push(&mut af, p, tx, *a).unwrap();
+                bp.push_naive(&mut an, p, tx, *a).unwrap();
+            }
+        }
+    }
+    let reference: Vec<Complex<f64>> = naive
+        .iter()
+        .map(|z| Complex::new(z.re as f64, z.im as f64))
+        .collect();
+    let ser = ser_db(&fast, &reference).unwrap();
+    assert!(ser >= 50.0, "fast vs naive SER {ser:.1} dB");
+}
+
+fn quantize(p: &[Complex<f32>], out: &mut [CQ15]) -> i32 {
+    let peak = p
+        .iter()
+        .fold(0.0f32, |m, z| m.max(z.re.abs()).max(z.im.abs()));
+    // Smallest e with peak · 2^−e < 1 (so no sample saturates).
+    let mut e = 0;
+    while peak * libm::ldexpf(1.0, -e) >= 1.0 - Q15::LSB {
+        e += 1;
+    }
+    while e > -60 && peak * libm::ldexpf(1.0, -(e - 1)) < 1.0 - Q15::LSB {
+        e -= 1;
+    }
+    for (o, z) in out.iter_mut().zip(p) {
+        *o = cq15_from_c32(*z * libm::ldexpf(1.0, -e));
+    }
+    e
+}
+
+#[test]
+fn q15_path_focuses_and_matches_f32() {
+    let bp = Backprojector::new(config(Interp::Linear, PhaseEval::Poly)).unwrap();
+    let targets = [([2, 3, 4], 1.0), ([5, 6, 1], 0.7)];
+    let rx = rx_positions();
+    let mut buf = vec![Complex::new(0i64, 0); bp.voxels()];
+    let mut acc = AccQ15::new(&bp, &mut buf).unwrap();
+    let mut q = vec![CQ15::default(); rx.len() * BINS];
+    let mut exps = vec![0i32; rx.len()];
+    for tx in tx_positions() {
+        let profiles = snapshot_profiles(&bp, tx, &rx, &targets);
+        for ((p, qp), e) in profiles
+            .chunks_exact(BINS)
+            .zip(q.chunks_exact_mut(BINS))
+            .zip(exps.iter_mut())
+        {
+            *e = quantize(p, qp);
+        }
+        let snap = Snapshot {
+            tx,
+            rx: &rx,
+            profiles: &q,
+            profile_len: BINS,
+        };
+        bp.push_snapshot_q15(&mut acc, &snap, &exps).unwrap();
+    }
+    let mut img = vec![Complex::new(0.0f32, 0.0); bp.voxels()];
+    acc.to_image_f32(&mut img).unwrap();
+    let f = image_f32(&bp, &targets);
+    assert_eq!(argmax(&img), index(&bp, targets[0].0));
+    let reference: Vec<Complex<f64>> = f
+        .iter()
+        .map(|z| Complex::new(z.re as f64, z.im as f64))
+        .collect();
+    // See tests/tests/bp_fixed_vs_float.rs for the derivation of the 40 dB floor.
+    let sqnr = ser_db(&img, &reference).unwrap();
+    assert!(sqnr >= 40.0, "Q15 vs f32 SQNR {sqnr:.1} dB");
+    std::println!("Q15 vs f32 SQNR {sqnr:.1} dB");
+}
+
+#[test]
+fn q15_exponents_are_aligned_across_pushes() {
+    // The same profile pushed as (q, e) and as (q/2 rounded, e + 1), and once more after a push
+    // at a much larger exponent forced the state to renormalise: the images agree within the
+    // rounding of those steps (each ≤ ½ LSB of the coarser scale per sample, bounded below).
+    let bp = Backprojector::new(config(Interp::Nearest, PhaseEval::Poly)).unwrap();
+    let tx = tx_positions()[3];
+    let rx = rx_positions()[10];
+    let p = snapshot_profiles(&bp, tx, &[rx], &[([4, 4, 4], 1.0)]);
+    let mut q = vec![CQ15::default(); BINS];
+    let e = quantize(&p, &mut q);
+    let half: Vec<CQ15> = q
+        .iter()
+        .map(|z| {
+            Complex::new(
+                Q15::from_bits(((z.re.to_bits() as i32 + 1) >> 1) as i16),
+                Q15::from_bits(((z.im.to_bits() as i32 + 1) >> 1) as i16),
+            )
+        })
+        .collect();
+    let mut b1 = vec![Complex::new(0i64, 0); bp.voxels()];
+    let mut b2 = vec![Complex::new(0i64, 0); bp.voxels()];
+    let mut a1 = AccQ15::new(&bp, &mut b1).unwrap();
+    let mut a2 = AccQ15::new(&bp, &mut b2).unwrap();
+    bp.push_q15(&mut a1, &q, e, tx, rx).unwrap();
+    bp.push_q15(&mut a1, &q, e, tx, rx).unwrap();
+    bp.push_q15(&mut a2, &q, e, tx, rx).unwrap();
+    bp.push_q15(&mut a2, &half, e + 1, tx, rx).unwrap();
+    assert_eq!(a2.exponent(), e + 1);
+    let zero = vec![CQ15::default(); BINS];
+    bp.push_q15(&mut a1, &zero, e + 5, tx, rx).unwrap();
+    assert_eq!(a1.exponent(), e + 5);
+    let mut i1 = vec![Complex::new(0.0f32, 0.0); bp.voxels()];
+    let mut i2 = i1.clone();
+    a1.to_image_f32(&mut i1).unwrap();
+    a2.to_image_f32(&mut i2).unwrap();
+    // Per voxel: halving rounds each component by ≤ ½ LSB at e + 1 (= 1 LSB at e), times a
+    // rotor ≤ 1, ×√2 for the complex magnitude; the first push's accumulator shifted by 1
+    // rounds ≤ ½ unit of 2^(e+1−30) (negligible); renormalising a1 by 4 bits rounds ≤ ½ unit
+    // of 2^(e+5−30); the rotor's magnitude is 1 within 10⁻⁴. Bound: (√2 + 10⁻³) LSB(e), plus
+    // the f32 rounding of both images (½ ulp per component: ≤ √2·(|x| + |y|)·2⁻²⁴).
+    let lsb = libm::ldexpf(1.0, e - 15);
+    for (x, y) in i1.iter().zip(&i2) {
+        let out_rounding = 2f32.sqrt() * (x.norm() + y.norm()) * libm::ldexpf(1.0, -24);
+        let bound = (2f32.sqrt() + 1e-3) * lsb + out_rounding;
+        assert!((x - y).norm() <= bound, "{x} vs {y}");
+    }
+}
+
+#[test]
+fn bad_configuration_is_an_error_naming_the_field() {
+    let ok = config(Interp::Linear, PhaseEval::Poly);
+    let cases: [(BpConfig, &str); 8] = [
+        (
+            BpConfig {
+                wavelength_m: 0.0,
+                ..ok
+            },
+            "config.wavelength_m",
+        ),
+        (
+            BpConfig {
+                wavelength_m: f32::NAN,
+                ..ok
+            },
+            "config.wavelength_m",
+        ),
+        (BpConfig { dr_m: 0.0, ..ok }, "config.dr_m"),
+        (BpConfig { dr_m: -0.1, ..ok }, "config.dr_m"),
+        (
+            BpConfig {
+                r0_m: f32::INFINITY,
+                ..ok
+            },
+            "config.r0_m",
+        ),
+        (
+            BpConfig {
+                grid: VoxelGrid {
+                    spacing: Vec3::new(0.3, 0.0, 0.3),
+                    ..ok.grid
+                },
+                ..ok
+            },
+            "config.grid.spacing.y",
+        ),
+        (
+            BpConfig {
+                grid: VoxelGrid {
+                    origin: Vec3::new(f32::NAN, 0.0, 0.0),
+                    ..ok.grid
+                },
+                ..ok
+            },
+            "config.grid.origin",
+        ),
+        (
+            BpConfig {
+                grid: VoxelGrid {
+                    dims: [8, 0, 8],
+                    ..ok.grid
+                },
+                ..ok
+            },
+            "config.grid.dims[1]",
+        ),
+    ];
+    for (cfg, field) in cases {
+        let e = Backprojector::new(cfg).unwrap_err();
+        let what = match e {
+            DspError::OutOfRange { what, .. }
+            | DspError::NonFinite { what }
+            | DspError::UnsupportedLength { what, .. } => what,
+            other => panic!("unexpected {other:?}"),
+        };
+        assert_eq!(what, field);
+    }
+    let huge = BpConfig {
+        grid: VoxelGrid {
+            dims: [usize::MAX, 2, 1],
+            ..ok.grid
+        },
+        ..ok
+    };
+    assert!(matches!(
+        Backprojector::new(huge),
+        Err(DspError::UnsupportedLength {
+            what: "config.grid.dims",
+            ..
+        })
+    ));
+}
+
+#[test]
+fn bad_state_and_push_inputs_are_errors_not_panics() {
+    let bp = Backprojector::new(config(Interp::Linear, PhaseEval::Poly)).unwrap();
+    let n = bp.voxels();
+    let mut small = vec![Complex::new(0.0f32, 0.0); n - 1];
+    assert_eq!(
+        AccF32::new(&bp, &mut small).unwrap_err(),
+        DspError::GridTooLarge {
+            voxels: n,
+            capacity: n - 1
+        }
+    );
+    assert!(matches!(
+        AccF32::tile(&bp, 10, &mut small),
+        Err(DspError::GridTooLarge { .. })
+    ));
+    assert!(AccF32::tile(&bp, 0, &mut []).is_err());
+    let mut small_q = vec![Complex::new(0i64, 0); n - 1];
+    assert!(matches!(
+        AccQ15::new(&bp, &mut small_q),
+        Err(DspError::GridTooLarge { .. })
+    ));
+    assert!(matches!(
+        AccQ15::tile(&bp, usize::MAX, &mut small_q),
+        Err(DspError::GridTooLarge { .. })
+    ));
+
+    let mut buf = vec![Complex::new(0.0f32, 0.0); n];
+    let mut acc = AccF32::new(&bp, &mut buf).unwrap();
+    let p = vec![Complex::new(0.1f32, 0.0); BINS];
+    let (tx, rx) = (Vec3::new(0.0, -4.0, 0.0), Vec3::new(1.0, -5.0, 3.0));
+    let nan = Vec3::new(0.0, f32::NAN, 0.0);
+    assert!(matches!(
+        bp.push(&mut acc, &[], tx, rx),
+        Err(DspError::UnsupportedLength {
+            what: "snapshot.profile_len",
+            ..
+        })
+    ));
+    assert_eq!(
+        bp.push(&mut acc, &p, nan, rx),
+        Err(DspError::NonFinite {
+            what: "snapshot.tx"
+        })
+    );
+    assert_eq!(
+        bp.push(&mut acc, &p, tx, nan),
+        Err(DspError::NonFinite {
+            what: "snapshot.rx"
+        })
+    );
+    assert_eq!(
+        bp.push_naive(&mut acc, &p, tx, nan),
+        Err(DspError::NonFinite {
+            what: "snapshot.rx"
+        })
+    );
+    assert!(bp.push_naive(&mut acc, &[], tx, rx).is_err());
+    let rxs = [rx, rx];
+    let bad = Snapshot {
+        tx,
+        rx: &rxs,
+        profiles: &p,
+        profile_len: BINS,
+    };
+    assert_eq!(
+        bp.push_snapshot(&mut acc, &bad),
+        Err(DspError::LengthMismatch {
+            what: "snapshot.profiles",
+            expected: 2 * BINS,
+            got: BINS
+        })
+    );
+    // A state made for a larger grid is refused by a smaller configuration.
+    let mut big_cfg = config(Interp::Linear, PhaseEval::Poly);
+    big_cfg.grid.dims = [16, 8, 8];
+    let big = Backprojector::new(big_cfg).unwrap();
+    let mut bigbuf = vec![Complex::new(0.0f32, 0.0); big.voxels()];
+    let mut bigacc = AccF32::new(&big, &mut bigbuf).unwrap();
+    assert!(matches!(
+        bp.push(&mut bigacc, &p, tx, rx),
+        Err(DspError::GridTooLarge { .. })
+    ));
+    assert_eq!(acc.pushes(), 0);
+
+    let mut qbuf = vec![Complex::new(0i64, 0); n];
+    let mut qacc = AccQ15::new(&bp, &mut qbuf).unwrap();
+    let qp = vec![CQ15::default(); BINS];
+    assert_eq!(
+        bp.push_q15(&mut qacc, &qp, 97, tx, rx),
+        Err(DspError::OutOfRange {
+            what: "exponents",
+            value: 97.0
+        })
+    );
+    assert_eq!(
+        bp.push_q15(&mut qacc, &qp, 0, nan, rx),
+        Err(DspError::NonFinite {
+            what: "snapshot.tx"
+        })
+    );
+    let qsnap = Snapshot {
+        tx,
+        rx: &rxs,
+        profiles: &qp[..],
+        profile_len: BINS / 2,
+    };
+    assert!(matches!(
+        bp.push_snapshot_q15(&mut qacc, &qsnap, &[0]),
+        Err(DspError::LengthMismatch {
+            what: "exponents",
+            ..
+        })
+    ));
+    qacc.pushes = MAX_PUSHES_Q15 as u64;
+    assert_eq!(
+        bp.push_q15(&mut qacc, &qp, 0, tx, rx),
+        Err(DspError::AccumulatorOverflow {
+            what: "AccQ15",
+            max_pushes: MAX_PUSHES_Q15
+        })
+    );
+    let mut short = vec![Complex::new(0.0f32, 0.0); n - 1];
+    assert!(matches!(
+        qacc.to_image_f32(&mut short),
+        Err(DspError::LengthMismatch { what: "image", .. })
+    ));
+
+    let mut r64 = vec![Complex::new(0.0f64, 0.0); n];
+    assert!(matches!(
+        bp.push_reference_f64(&mut r64[..n - 1], &p, v64(tx), v64(rx)),
+        Err(DspError::GridTooLarge { .. })
+    ));
+    assert_eq!(
+        bp.push_reference_f64(&mut r64, &p, [0.0, f64::NAN, 0.0], v64(rx)),
+        Err(DspError::NonFinite { what: "tx" })
+    );
+    assert!(bp
+        .push_reference_f64(&mut r64, &[], v64(tx), v64(rx))
+        .is_err());
+    assert!(matches!(
+        ser_db(&buf[..3], &r64),
+        Err(DspError::LengthMismatch { .. })
+    ));
+    assert!(matches!(
+        ser_db(&buf, &r64),
+        Err(DspError::OutOfRange {
+            what: "reference energy",
+            ..
+        })
+    ));
+    let mut prof = vec![Complex::new(0.0f32, 0.0); 8];
+    assert!(add_point_echo(&mut prof, 0.0, 0.0, 0.03, 0.2, 1.0, Complex::new(1.0, 0.0)).is_err());
+    assert!(add_point_echo(
+        &mut prof,
+        0.0,
+        0.1,
+        0.03,
+        0.2,
+        f64::NAN,
+        Complex::new(1.0, 0.0)
+    )
+    .is_err());
+}
+
+#[test]
+fn profile_outside_the_grid_ranges_contributes_nothing() {
+    // A profile whose bins all lie beyond every voxel's bistatic range leaves the image zero.
+    let mut cfg = config(Interp::Linear, PhaseEval::Poly);
+    cfg.r0_m = 100.0;
+    let bp = Backprojector::new(cfg).unwrap();
+    let mut buf = vec![Complex::new(0.0f32, 0.0); bp.voxels()];
+    let mut acc = AccF32::new(&bp, &mut buf).unwrap();
+    let p = vec![Complex::new(1.0f32, 1.0); BINS];
+    bp.push(&mut acc, &p, Vec3::ZERO, Vec3::ZERO).unwrap();
+    assert!(buf.iter().all(|z| *z == Complex::new(0.0, 0.0)));
+}

@@ -1,0 +1,237 @@
+//! Phase rotors `e^{+j2πt}` for back-projection, evaluated from a phase `t` in *cycles*.
+//!
+//! Back-projection multiplies every interpolated sample by `e^{+j2π r/λ}`; with `t = r/λ` in
+//! cycles only the fractional part of `t` matters. Two evaluators live here, each with a stated
+//! error that the tests below check:
+//!
+//! * [`rotor_f32`]: a branch-free polynomial (quadrant reduction, then odd degree-7 sine and
+//!   even degree-8 cosine Taylor polynomials on \[−π/4, π/4\]). Truncation error ≤ 3.2·10⁻⁷
+//!   (the first omitted terms, θ⁹/9! and θ¹⁰/10! at θ = π/4); with `f32` rounding the
+//!   measured error against `libm` is below [`ROTOR_F32_MAX_ERR`] = 2·10⁻⁶ per component for
+//!   `|t| ≤ 2¹⁶` cycles. It vectorises (no table, no branch), so it is the fast path's phase.
+//! * [`rotor_q15`]: the fixed-point path's rotor, read from a quarter-wave sine table of
+//!   [`QUARTER`] + 1 Q15 entries ([`PHASE_STEPS`] = 4·[`QUARTER`] = 8192 phase steps per cycle)
+//!   built at compile time, so no `sin`/`cos` runs at run time. The phase is rounded to the
+//!   nearest step (error ≤ π/8192 rad) and each entry is rounded to the nearest Q15 LSB; the
+//!   resulting error per component is ≤ 32768·π/8192 + 0.5 ≈ 13.1 LSB, stated as
+//!   [`ROTOR_Q15_MAX_ERR_LSB`] = 14 and checked against `libm` over every step.
+//!
+//! Phases are unsigned fractions of a cycle: [`phase_index`] maps `t` (cycles, any sign) to a step
+//! in `0..PHASE_STEPS`, the only conversion between the float geometry and the table.
+
+use num_complex::Complex;
+
+/// Entries per quarter wave of the Q15 sine table.
+pub const QUARTER: usize = 2048;
+/// Phase steps per cycle of [`rotor_q15`].
+pub const PHASE_STEPS: u32 = 4 * QUARTER as u32;
+/// Stated bound on the error of each component of [`rotor_f32`] against `libm`.
+pub const ROTOR_F32_MAX_ERR: f32 = 2.0e-6;
+/// Stated bound, in Q15 LSB, on the error of each component of [`rotor_q15`] against the exact
+/// `e^{j2πt}` for any `t` (phase rounding to 1/8192 cycle plus Q15 rounding of the table).
+pub const ROTOR_Q15_MAX_ERR_LSB: f32 = 14.0;
+
+/// `sin(2π k / PHASE_STEPS)` for `k = 0..=QUARTER`, rounded to Q15 (1.0 saturates to 32767).
+pub static SIN_QUARTER_Q15: [i16; QUARTER + 1] = build_quarter_table();
+
+/// Compile-time sine by Taylor series in `f64` (x in \[0, π/2\]; 14 terms: error < 10⁻¹⁵).
+const fn const_sin(x: f64) -> f64 {
+    let x2 = x * x;
+    let mut term = x;
+    let mut sum = x;
+    let mut n = 1u32;
+    while n < 14 {
+        let k = (2 * n) as f64;
+        term = -term * x2 / (k * (k + 1.0));
+        sum += term;
+        n += 1;
+    }
+    sum
+}
+
+const fn build_quarter_table() -> [i16; QUARTER + 1] {
+    let mut t = [0i16; QUARTER + 1];
+    let mut k = 0;
+    while k <= QUARTER {
+        let x = core::f64::consts::FRAC_PI_2 * (k as f64) / (QUARTER as f64);
+        let v = const_sin(x) * 32768.0;
+        // Round half away from zero (v ≥ 0 here); `as` saturates 32768 to 32767.
+        t[k] = (v + 0.5) as i16;
+        k += 1;
+    }
+    t
+}
+
+/// `floor(x)` for finite `x` by truncation (vectorises, unlike `libm::floorf` on x86-64
+/// baseline): exact for every finite `f32` (`|x| ≥ 2²³` is already an integer and returned
+/// unchanged). NaN stays NaN.
+#[inline(always)]
+pub fn floor_f32(x: f32) -> f32 {
+    let t = (x as i32) as f32;
+    let f = if t > x { t - 1.0 } else { t };
+    if x.abs() < 8_388_608.0 {
+        f
+    } else {
+        x
+    }
+}
+
+/// The phase step in `0..PHASE_STEPS` nearest to `t` cycles (any sign; only `frac(t)` matters).
+///
+/// `t` must be finite; a non-finite `t` maps to step 0 (float-to-int `as` casts saturate).
+#[inline(always)]
+pub fn phase_index(t: f32) -> u32 {
+    let f = t - floor_f32(t); // [0, 1]
+    ((f * PHASE_STEPS as f32 + 0.5) as u32) & (PHASE_STEPS - 1)
+}
+
+/// `e^{+j2π k/PHASE_STEPS}` as Q15 `(re, im)` from the quarter-wave table. `k` is taken modulo
+/// [`PHASE_STEPS`].
+#[inline(always)]
+pub fn rotor_q15_index(k: u32) -> (i16, i16) {
+    let k = k & (PHASE_STEPS - 1);
+    let quadrant = k / QUARTER as u32;
+    let m = (k % QUARTER as u32) as usize;
+    // sin and cos of the angle within the quadrant; `m ≤ QUARTER − 1` so both indices are valid.
+    let s = SIN_QUARTER_Q15[m];
+    let c = SIN_QUARTER_Q15[QUARTER - m];
+    match quadrant {
+        0 => (c, s),
+        1 => (-s, c),
+        2 => (-c, -s),
+        _ => (s, -c),
+    }
+}
+
+/// `e^{+j2πt}` in Q15 (see the module docs for the error bound).
+#[inline(always)]
+pub fn rotor_q15(t: f32) -> (i16, i16) {
+    rotor_q15_index(phase_index(t))
+}
+
+/// `e^{+j2πt}` in `f32` by quadrant reduction and polynomials (error ≤ [`ROTOR_F32_MAX_ERR`] per
+/// component for `|t| ≤ 2¹⁶`; larger `|t|` lose fractional bits in `t` itself).
+#[inline(always)]
+pub fn rotor_f32(t: f32) -> Complex<f32> {
+    // Nearest quarter turn: t = q/4 + u, |u| ≤ 1/8 cycle. `round` via floor(x + 0.5).
+    let q4 = floor_f32(4.0 * t + 0.5);
+    let u = t - 0.25 * q4;
+    let th = core::f32::consts::TAU * u;
+    let th2 = th * th;
+    let s = th * (1.0 + th2 * (-1.0 / 6.0 + th2 * (1.0 / 120.0 + th2 * (-1.0 / 5040.0))));
+    let c = 1.0 + th2 * (-0.5 + th2 * (1.0 / 24.0 + th2 * (-1.0 / 720.0 + th2 * (1.0 / 40320.0))));
+    // Rotate by q quarter turns, q mod 4 (two's complement & 3 handles negative q).
+    let q = (q4 as i32) & 3;
+    let (re, im) = if q & 1 == 0 { (c, s) } else { (-s, c) };
+    if q & 2 == 0 {
+        Complex::new(re, im)
+    } else {
+        Complex::new(-re, -im)
+    }
+}
+
+/// `e^{+j2πt}` in `f32` from `libm::sincosf` after reducing `t` to `[−½, ½)`: the exact path.
+#[inline]
+pub fn rotor_f32_libm(t: f32) -> Complex<f32> {
+    let f = t - libm::floorf(t + 0.5);
+    let (s, c) = libm::sincosf(core::f32::consts::TAU * f);
+    Complex::new(c, s)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn exact(t: f64) -> (f64, f64) {
+        let f = t - libm::floor(t);
+        let a = core::f64::consts::TAU * f;
+        (libm::cos(a), libm::sin(a))
+    }
+
+    #[test]
+    fn quarter_table_entries_are_within_half_an_lsb_of_libm() {
+        for (k, &v) in SIN_QUARTER_Q15.iter().enumerate() {
+            let x = core::f64::consts::FRAC_PI_2 * k as f64 / QUARTER as f64;
+            let want = (libm::sin(x) * 32768.0).min(32767.0);
+            assert!(
+                (v as f64 - want).abs() <= 0.5 + 1e-9,
+                "k = {k}: {v} vs {want}"
+            );
+        }
+        assert_eq!(SIN_QUARTER_Q15[0], 0);
+        assert_eq!(SIN_QUARTER_Q15[QUARTER], 32767);
+    }
+
+    #[test]
+    fn rotor_q15_error_is_within_stated_lsb_for_every_step_and_between_steps() {
+        let mut worst = 0.0f64;
+        // Every step, and points a third and a half step off it (the half step is the worst
+        // case of phase rounding).
+        for k in 0..PHASE_STEPS {
+            for off in [0.0, 0.33, 0.499] {
+                let t = (k as f64 + off) / PHASE_STEPS as f64;
+                let (re, im) = rotor_q15(t as f32);
+                let (c, s) = exact(t);
+                worst = worst
+                    .max((re as f64 - c * 32768.0).abs())
+                    .max((im as f64 - s * 32768.0).abs());
+            }
+        }
+        assert!(worst <= ROTOR_Q15_MAX_ERR_LSB as f64, "worst {worst} LSB");
+        // The bound is not loose by more than an LSB: the half-step error alone is ~12.6 LSB.
+        assert!(worst > 12.0, "worst {worst} LSB");
+    }
+
+    #[test]
+    fn rotor_f32_matches_libm_within_stated_error() {
+        let mut worst = 0.0f32;
+        let mut t = -70000.0f32;
+        // Non-uniform stride so every quadrant and fraction is visited.
+        while t < 70000.0 {
+            let z = rotor_f32(t);
+            let e = rotor_f32_libm(t);
+            worst = worst.max((z.re - e.re).abs()).max((z.im - e.im).abs());
+            t += 0.618_034 * (1.0 + libm::fabsf(t) * 1e-4);
+        }
+        for k in 0..10_000 {
+            let t = k as f32 * 1.37e-4 - 0.5;
+            let z = rotor_f32(t);
+            let (c, s) = exact(t as f64);
+            worst = worst
+                .max((z.re - c as f32).abs())
+                .max((z.im - s as f32).abs());
+        }
+        assert!(worst <= ROTOR_F32_MAX_ERR, "worst {worst}");
+    }
+
+    #[test]
+    fn floor_f32_matches_libm_floor() {
+        for x in [
+            -3.5f32,
+            -3.0,
+            -0.0,
+            0.0,
+            0.3,
+            2.999_999_8,
+            -2.000_000_2,
+            1e7,
+            -1e7,
+            3e9,
+            -3e9,
+            1e30,
+        ] {
+            assert_eq!(floor_f32(x), libm::floorf(x), "x = {x}");
+        }
+        assert!(floor_f32(f32::NAN).is_nan());
+    }
+
+    #[test]
+    fn phase_index_wraps_negative_and_large_phases() {
+        assert_eq!(phase_index(0.0), 0);
+        assert_eq!(phase_index(0.25), QUARTER as u32);
+        assert_eq!(phase_index(-0.25), 3 * QUARTER as u32);
+        assert_eq!(phase_index(1000.5), 2 * QUARTER as u32);
+        assert_eq!(phase_index(0.99999), 0);
+        assert_eq!(rotor_q15_index(QUARTER as u32), (0, 32767));
+    }
+}
