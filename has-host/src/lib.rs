@@ -9,7 +9,9 @@
 
 pub use has_dsp::geometry::{bistatic_range, wavelength_m, C_M_PER_S};
 
+pub mod knn;
 pub mod material;
+pub mod metrics;
 pub mod propagation;
 pub mod scene;
 pub mod shapes;

@@ -1,0 +1,388 @@
+//! Reconstruction quality metrics of the paper (§1.3): Chamfer distance (eq. 2), precision,
+//! recall and F-score (eq. 3), and uniform area-weighted sampling of triangle meshes, which gives
+//! both the ground truth S2 (samples on the true surfaces) and S1 for a reconstructed mesh.
+//!
+//! Conventions, exactly as the paper:
+//! - CD(S1, S2) = mean over x∈S1 of min_y ‖x−y‖² + mean over y∈S2 of min_x ‖x−y‖² (squared
+//!   distances, each direction averaged over its own set, the two means summed), in m²; the
+//!   reported figure is √CD in metres.
+//! - P(d) = 100·|{x∈S1 : min_y ‖x−y‖ < d}| / |S1|, R(d) = 100·|{y∈S2 : min_x ‖x−y‖ < d}| / |S2|
+//!   (strict `<`, percent); F = 2PR/(P+R), defined as 0 when P + R = 0.
+//!
+//! S1 is the reconstruction (mesh samples or the imaging cloud), S2 the ground truth. Nearest
+//! neighbours come from a k-d tree ([`PointIndex`]), queries in parallel with rayon; sums are
+//! accumulated in f64.
+
+use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+
+use crate::knn::{GeometryError, PointIndex};
+
+/// F-score thresholds every report carries, metres (the paper's headline is 1.5 m).
+pub const REPORT_THRESHOLDS_M: [f32; 3] = [0.5, 1.0, 1.5];
+
+/// Precision, recall and F-score at one distance threshold (eq. 3), in percent.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct FScore {
+    /// Threshold d, metres.
+    pub threshold_m: f32,
+    /// P(d), percent of S1 within d of S2.
+    pub precision_pct: f64,
+    /// R(d), percent of S2 within d of S1.
+    pub recall_pct: f64,
+    /// 2PR/(P+R), percent (0 when P + R = 0).
+    pub fscore_pct: f64,
+}
+
+/// Nearest-neighbour distances of S1 → S2 and S2 → S1, from which every metric follows.
+#[derive(Clone, Debug)]
+pub struct CloudComparison {
+    /// For each x∈S1, min over S2 of the squared distance, m².
+    pub s1_to_s2_sq_m2: Vec<f32>,
+    /// For each y∈S2, min over S1 of the squared distance, m².
+    pub s2_to_s1_sq_m2: Vec<f32>,
+}
+
+fn mean_f64(v: &[f32]) -> f64 {
+    v.iter().map(|&x| x as f64).sum::<f64>() / v.len() as f64
+}
+
+fn pct_below(v: &[f32], thr_sq: f32) -> f64 {
+    100.0 * v.iter().filter(|&&x| x < thr_sq).count() as f64 / v.len() as f64
+}
+
+impl CloudComparison {
+    /// Computes both nearest-neighbour distance sets.
+    ///
+    /// # Errors
+    /// Either set empty or holding a non-finite point (`field` is `"s1"` or `"s2"`).
+    pub fn new(s1: &[Vec3], s2: &[Vec3]) -> Result<CloudComparison, GeometryError> {
+        let i1 = PointIndex::new("s1", s1)?;
+        let i2 = PointIndex::new("s2", s2)?;
+        Ok(CloudComparison {
+            s1_to_s2_sq_m2: i2.nearest_sq_many(s1),
+            s2_to_s1_sq_m2: i1.nearest_sq_many(s2),
+        })
+    }
+
+    /// Chamfer distance (eq. 2), m².
+    pub fn chamfer_m2(&self) -> f64 {
+        mean_f64(&self.s1_to_s2_sq_m2) + mean_f64(&self.s2_to_s1_sq_m2)
+    }
+
+    /// √CD, metres: the paper's reported figure.
+    pub fn sqrt_chamfer_m(&self) -> f64 {
+        self.chamfer_m2().sqrt()
+    }
+
+    /// Precision, recall and F-score at threshold `d_m` (eq. 3).
+    ///
+    /// # Errors
+    /// `d_m` not finite and positive.
+    pub fn fscore(&self, d_m: f32) -> Result<FScore, GeometryError> {
+        if !(d_m.is_finite() && d_m > 0.0) {
+            return Err(GeometryError::BadParameter {
+                field: "threshold_m",
+                value: d_m as f64,
+                expected: "finite and > 0",
+            });
+        }
+        let thr_sq = d_m * d_m;
+        let p = pct_below(&self.s1_to_s2_sq_m2, thr_sq);
+        let r = pct_below(&self.s2_to_s1_sq_m2, thr_sq);
+        let f = if p + r > 0.0 {
+            2.0 * p * r / (p + r)
+        } else {
+            0.0
+        };
+        Ok(FScore {
+            threshold_m: d_m,
+            precision_pct: p,
+            recall_pct: r,
+            fscore_pct: f,
+        })
+    }
+}
+
+/// √CD(S1, S2) in metres (eq. 2).
+///
+/// # Errors
+/// As [`CloudComparison::new`].
+pub fn sqrt_chamfer_m(s1: &[Vec3], s2: &[Vec3]) -> Result<f64, GeometryError> {
+    Ok(CloudComparison::new(s1, s2)?.sqrt_chamfer_m())
+}
+
+/// F-score of S1 against S2 at threshold `d_m` (eq. 3).
+///
+/// # Errors
+/// As [`CloudComparison::new`] and [`CloudComparison::fscore`].
+pub fn fscore(s1: &[Vec3], s2: &[Vec3], d_m: f32) -> Result<FScore, GeometryError> {
+    CloudComparison::new(s1, s2)?.fscore(d_m)
+}
+
+/// Most samples one call may produce (guards against a density typo exhausting memory).
+pub const MAX_SAMPLES: f64 = 2.0e8;
+
+/// Uniform, area-weighted random samples on triangles, `density_per_m2` points per m² on
+/// average, reproducible from `seed`.
+///
+/// Each triangle of area A receives ⌊A·ρ + u⌋ points (u uniform in [0, 1)), so its expected
+/// count is exactly A·ρ and the total deviates from the total area × ρ by at most a few
+/// √(triangles)/2; a point is v0 + a·(v1 − v0) + b·(v2 − v0) with (a, b) uniform on the unit
+/// triangle (square-root warping). Degenerate triangles get no points.
+///
+/// # Errors
+/// Density not finite and positive; a non-finite vertex; more than [`MAX_SAMPLES`] expected.
+pub fn sample_triangles(
+    triangles: &[[Vec3; 3]],
+    density_per_m2: f64,
+    seed: u64,
+) -> Result<Vec<Vec3>, GeometryError> {
+    if !(density_per_m2.is_finite() && density_per_m2 > 0.0) {
+        return Err(GeometryError::BadParameter {
+            field: "density_per_m2",
+            value: density_per_m2,
+            expected: "finite and > 0",
+        });
+    }
+    let mut total_area = 0.0f64;
+    for (i, t) in triangles.iter().enumerate() {
+        if let Some(v) = t.iter().find(|v| !v.is_finite()) {
+            return Err(GeometryError::NonFinite {
+                field: "triangles",
+                index: i,
+                value: *v,
+            });
+        }
+        total_area += triangle_area(t) as f64;
+    }
+    let expected = total_area * density_per_m2;
+    if expected > MAX_SAMPLES {
+        return Err(GeometryError::BadParameter {
+            field: "density_per_m2",
+            value: density_per_m2,
+            expected: "small enough that area × density ≤ 2e8 samples",
+        });
+    }
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let mut out = Vec::with_capacity(expected as usize + triangles.len().min(1 << 20));
+    for t in triangles {
+        let a = triangle_area(t) as f64;
+        let u: f64 = rng.random();
+        let n = (a * density_per_m2 + u).floor() as usize;
+        let e1 = t[1] - t[0];
+        let e2 = t[2] - t[0];
+        for _ in 0..n {
+            let r1: f32 = rng.random();
+            let r2: f32 = rng.random();
+            let s = r1.sqrt();
+            // Barycentric (1 − s, s(1 − r2), s·r2) is uniform on the triangle.
+            out.push(t[0] + e1 * (s * (1.0 - r2)) + e2 * (s * r2));
+        }
+    }
+    Ok(out)
+}
+
+/// [`sample_triangles`] on an indexed mesh (`faces` index into `vertices`).
+///
+/// # Errors
+/// As [`sample_triangles`], plus [`GeometryError::BadFace`] for an out-of-range index.
+pub fn sample_mesh(
+    vertices: &[Vec3],
+    faces: &[[u32; 3]],
+    density_per_m2: f64,
+    seed: u64,
+) -> Result<Vec<Vec3>, GeometryError> {
+    let tris = indexed_triangles(vertices, faces)?;
+    sample_triangles(&tris, density_per_m2, seed)
+}
+
+/// Expands an indexed mesh into triangles, checking every index.
+///
+/// # Errors
+/// [`GeometryError::BadFace`] for an index ≥ `vertices.len()`.
+pub fn indexed_triangles(
+    vertices: &[Vec3],
+    faces: &[[u32; 3]],
+) -> Result<Vec<[Vec3; 3]>, GeometryError> {
+    faces
+        .iter()
+        .enumerate()
+        .map(|(fi, f)| {
+            let mut t = [Vec3::ZERO; 3];
+            for (k, &vi) in f.iter().enumerate() {
+                t[k] = *vertices.get(vi as usize).ok_or(GeometryError::BadFace {
+                    face: fi,
+                    vertex: vi,
+                    vertex_count: vertices.len(),
+                })?;
+            }
+            Ok(t)
+        })
+        .collect()
+}
+
+/// Area of a triangle, m².
+pub fn triangle_area(t: &[Vec3; 3]) -> f32 {
+    0.5 * (t[1] - t[0]).cross(t[2] - t[0]).length()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Points on a regular n×n grid of spacing `s` on the plane z = `z`.
+    fn grid(n: usize, s: f32, z: f32) -> Vec<Vec3> {
+        let mut v = Vec::new();
+        for i in 0..n {
+            for j in 0..n {
+                v.push(Vec3::new(i as f32 * s, j as f32 * s, z));
+            }
+        }
+        v
+    }
+
+    #[test]
+    fn parallel_planes_offset_h_give_sqrt_cd_h_sqrt2_and_fscore_step_at_h() {
+        // Same grid on z = 0 and z = h with spacing s > h: every nearest neighbour is the point
+        // straight across (distance h; any other is √(h² + s²) > h), so each mean of squared
+        // distances is h² and CD = 2h², √CD = h√2. Every distance equals h, so F jumps from 0
+        // (d < h) to 100 (d > h).
+        let h = 0.3f32;
+        let a = grid(20, 0.5, 0.0);
+        let b = grid(20, 0.5, h);
+        let c = CloudComparison::new(&a, &b).unwrap();
+        let want = h as f64 * 2f64.sqrt();
+        // f32 rounding of h and h²: relative error ≲ 1e-7.
+        assert!(
+            (c.sqrt_chamfer_m() - want).abs() < 1e-6,
+            "{}",
+            c.sqrt_chamfer_m()
+        );
+        let below = c.fscore(0.99 * h).unwrap();
+        assert_eq!(
+            (below.precision_pct, below.recall_pct, below.fscore_pct),
+            (0.0, 0.0, 0.0)
+        );
+        let above = c.fscore(1.01 * h).unwrap();
+        assert_eq!(
+            (above.precision_pct, above.recall_pct, above.fscore_pct),
+            (100.0, 100.0, 100.0)
+        );
+    }
+
+    #[test]
+    fn chamfer_is_asymmetric_in_means_as_eq2() {
+        // S1 = {0}, S2 = {0, 2 m along x}. S1→S2 mean = 0; S2→S1 mean = (0 + 4)/2 = 2 m².
+        // CD = 2, √CD = √2. Precision(1 m) = 100, recall(1 m) = 50, F = 2·100·50/150 = 66.67.
+        let s1 = [Vec3::ZERO];
+        let s2 = [Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0)];
+        let c = CloudComparison::new(&s1, &s2).unwrap();
+        assert!((c.chamfer_m2() - 2.0).abs() < 1e-12);
+        let f = c.fscore(1.0).unwrap();
+        assert_eq!(f.precision_pct, 100.0);
+        assert_eq!(f.recall_pct, 50.0);
+        assert!((f.fscore_pct - 200.0 / 3.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn identical_sets_have_zero_chamfer() {
+        let a = grid(10, 1.0, 2.0);
+        assert_eq!(sqrt_chamfer_m(&a, &a).unwrap(), 0.0);
+        assert_eq!(fscore(&a, &a, 0.01).unwrap().fscore_pct, 100.0);
+    }
+
+    #[test]
+    fn metrics_reject_empty_nan_and_bad_threshold() {
+        let a = grid(3, 1.0, 0.0);
+        assert_eq!(
+            sqrt_chamfer_m(&[], &a).unwrap_err(),
+            GeometryError::Empty { field: "s1" }
+        );
+        assert_eq!(
+            sqrt_chamfer_m(&a, &[]).unwrap_err(),
+            GeometryError::Empty { field: "s2" }
+        );
+        let mut b = a.clone();
+        b[4].y = f32::NAN;
+        assert!(matches!(
+            fscore(&a, &b, 1.0).unwrap_err(),
+            GeometryError::NonFinite {
+                field: "s2",
+                index: 4,
+                ..
+            }
+        ));
+        for bad in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            assert!(matches!(
+                fscore(&a, &a, bad).unwrap_err(),
+                GeometryError::BadParameter {
+                    field: "threshold_m",
+                    ..
+                }
+            ));
+        }
+    }
+
+    #[test]
+    fn sampling_is_uniform_by_area_on_the_surface_and_reproducible() {
+        // Two triangles of a 10 m × 4 m rectangle in z = 1 (40 m²), split unevenly by area
+        // with a third, tiny triangle: at 50 points/m² expect 2000 ± a few.
+        let tris = [
+            [
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(10.0, 0.0, 1.0),
+                Vec3::new(10.0, 4.0, 1.0),
+            ],
+            [
+                Vec3::new(0.0, 0.0, 1.0),
+                Vec3::new(10.0, 4.0, 1.0),
+                Vec3::new(0.0, 4.0, 1.0),
+            ],
+        ];
+        let rho = 50.0;
+        let p = sample_triangles(&tris, rho, 7).unwrap();
+        // Per-triangle stochastic rounding: |total − 2000| < number of triangles.
+        assert!((p.len() as i64 - 2000).abs() < 2, "{}", p.len());
+        assert!(p.iter().all(|v| (v.z - 1.0).abs() < 1e-6
+            && (-1e-4..=10.0001).contains(&v.x)
+            && (-1e-4..=4.0001).contains(&v.y)));
+        // Uniformity: the half x < 5 holds 50 % of the area; the count there is binomial
+        // (n = 2000, p = 0.5), σ = √(2000·0.25) ≈ 22.4; allow 4σ = 90.
+        let left = p.iter().filter(|v| v.x < 5.0).count() as i64;
+        assert!((left - 1000).abs() < 90, "{left}");
+        // A corner quarter (x < 5, y < 2) has 25 %: σ = √(2000·0.1875) ≈ 19.4, 4σ ≈ 78.
+        let q = p.iter().filter(|v| v.x < 5.0 && v.y < 2.0).count() as i64;
+        assert!((q - 500).abs() < 78, "{q}");
+        assert_eq!(p, sample_triangles(&tris, rho, 7).unwrap());
+        assert_ne!(p, sample_triangles(&tris, rho, 8).unwrap());
+    }
+
+    #[test]
+    fn sampling_rejects_bad_density_nan_vertices_and_bad_faces() {
+        let t = [[Vec3::ZERO, Vec3::X, Vec3::Y]];
+        for bad in [0.0, -1.0, f64::NAN, f64::INFINITY, 1e12] {
+            assert!(matches!(
+                sample_triangles(&t, bad, 0).unwrap_err(),
+                GeometryError::BadParameter {
+                    field: "density_per_m2",
+                    ..
+                }
+            ));
+        }
+        let n = [[Vec3::ZERO, Vec3::new(0.0, f32::NAN, 0.0), Vec3::Y]];
+        assert!(matches!(
+            sample_triangles(&n, 1.0, 0).unwrap_err(),
+            GeometryError::NonFinite { index: 0, .. }
+        ));
+        assert_eq!(
+            sample_mesh(&[Vec3::ZERO, Vec3::X, Vec3::Y], &[[0, 1, 3]], 1.0, 0).unwrap_err(),
+            GeometryError::BadFace {
+                face: 0,
+                vertex: 3,
+                vertex_count: 3
+            }
+        );
+    }
+}
