@@ -195,6 +195,40 @@ pub fn cq15_to_c32(z: CQ15) -> Complex<f32> {
     Complex::new(z.re.to_f32(), z.im.to_f32())
 }
 
+/// Block-floating-point conversion: writes `dst[i] = src[i] · 2^−e` in Q15 (rounded, see
+/// [`Q15::from_f32`]) and returns the block exponent `e` (so `src[i] ≈ dst[i] · 2^e`), the
+/// smallest for which no component saturates: the largest component lands in \[½, 1). An all-zero
+/// block gets `e = 0`.
+///
+/// # Errors
+/// `LengthMismatch` unless the lengths agree; `NonFinite` if a sample is not finite.
+pub fn cq15_block_from_c32(
+    src: &[Complex<f32>],
+    dst: &mut [CQ15],
+) -> Result<i32, crate::error::DspError> {
+    crate::error::check_len("dst", src.len(), dst.len())?;
+    let mut peak = 0.0f32;
+    for z in src {
+        crate::error::check_finite("src", z.re)?;
+        crate::error::check_finite("src", z.im)?;
+        peak = peak.max(z.re.abs()).max(z.im.abs());
+    }
+    if peak == 0.0 {
+        dst.fill(CQ15::default());
+        return Ok(0);
+    }
+    // peak = m · 2^k, m in [½, 1); if m rounds to 1.0 in Q15 it would saturate: one more bit.
+    let (m, mut e) = libm::frexpf(peak);
+    if m >= 1.0 - 0.5 * Q15::LSB {
+        e += 1;
+    }
+    let scale = libm::ldexpf(1.0, -e);
+    for (d, z) in dst.iter_mut().zip(src) {
+        *d = cq15_from_c32(*z * scale);
+    }
+    Ok(e)
+}
+
 /// Exact complex product of two Q15 values as Q30 in `i32` parts.
 ///
 /// Each part is a sum of two Q30 products, at most 2 · 2³⁰ in magnitude, which fits `i32` except
@@ -301,6 +335,30 @@ mod tests {
         let exact_c = cq15_to_c32(a) * cq15_to_c32(b).conj();
         assert!((pc.re as f32 / (1u32 << 30) as f32 - exact_c.re).abs() < 1e-6);
         assert!((pc.im as f32 / (1u32 << 30) as f32 - exact_c.im).abs() < 1e-6);
+    }
+
+    #[test]
+    fn block_conversion_puts_the_peak_in_upper_half_without_saturating() {
+        let src = [Complex::new(3.0f32, -0.5), Complex::new(0.1, 2.9)];
+        let mut dst = [CQ15::default(); 2];
+        let e = cq15_block_from_c32(&src, &mut dst).unwrap();
+        assert_eq!(e, 2);
+        assert_eq!(dst[0].re.0, 24576); // 3/4
+        for (d, s) in dst.iter().zip(&src) {
+            let back = cq15_to_c32(*d) * 4.0;
+            assert!((back - s).norm() <= 4.0 * Q15::LSB);
+        }
+        // Exactly a power of two and just below: still no saturation.
+        let e = cq15_block_from_c32(&[Complex::new(1.0, 0.0)], &mut dst[..1]).unwrap();
+        assert_eq!((e, dst[0].re.0), (1, 16384));
+        let e = cq15_block_from_c32(&[Complex::new(0.99999, 0.0)], &mut dst[..1]).unwrap();
+        assert_eq!((e, dst[0].re.0), (1, 16384));
+        assert_eq!(
+            cq15_block_from_c32(&[Complex::new(0.0, 0.0)], &mut dst[..1]),
+            Ok(0)
+        );
+        assert!(cq15_block_from_c32(&src, &mut dst[..1]).is_err());
+        assert!(cq15_block_from_c32(&[Complex::new(f32::NAN, 0.0)], &mut dst[..1]).is_err());
     }
 
     #[test]

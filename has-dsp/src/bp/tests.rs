@@ -3,7 +3,7 @@
 
 extern crate std;
 use super::*;
-use crate::fixed::{cq15_from_c32, Q15};
+use crate::fixed::Q15;
 use std::vec;
 use std::vec::Vec;
 
@@ -316,21 +316,7 @@ fn naive_loop_matches_fast_path() {
 }
 
 fn quantize(p: &[Complex<f32>], out: &mut [CQ15]) -> i32 {
-    let peak = p
-        .iter()
-        .fold(0.0f32, |m, z| m.max(z.re.abs()).max(z.im.abs()));
-    // Smallest e with peak · 2^−e < 1 (so no sample saturates).
-    let mut e = 0;
-    while peak * libm::ldexpf(1.0, -e) >= 1.0 - Q15::LSB {
-        e += 1;
-    }
-    while e > -60 && peak * libm::ldexpf(1.0, -(e - 1)) < 1.0 - Q15::LSB {
-        e -= 1;
-    }
-    for (o, z) in out.iter_mut().zip(p) {
-        *o = cq15_from_c32(*z * libm::ldexpf(1.0, -e));
-    }
-    e
+    crate::fixed::cq15_block_from_c32(p, out).unwrap()
 }
 
 #[test]
