@@ -11,6 +11,7 @@ pub use has_dsp::geometry::{bistatic_range, wavelength_m, C_M_PER_S};
 
 pub mod knn;
 pub mod material;
+pub mod mesh;
 pub mod metrics;
 pub mod propagation;
 pub mod scene;

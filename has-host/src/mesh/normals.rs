@@ -1,0 +1,372 @@
+//! Point-cloud normals: PCA over the k nearest neighbours (the eigenvector of the smallest
+//! eigenvalue of the neighbourhood covariance), then a consistent orientation.
+//!
+//! Orientation, in order of preference:
+//! - [`Orientation::Sensors`] / [`Orientation::SensorSets`]: the caller knows which sensors saw
+//!   each point (BSs, terminal apertures); the normal is flipped so that n·(s − p) > 0, by a
+//!   majority vote over the point's sensors when there are several (ties keep the vote of the
+//!   nearest sensor).
+//! - [`Orientation::Propagate`] (fallback, Hoppe et al. 1992): a minimum spanning tree of the
+//!   symmetric k-NN graph with edge cost 1 − |nᵢ·nⱼ| is grown from a seed in each connected
+//!   component; the seed is the component's point farthest from the cloud's centroid, oriented
+//!   away from the centroid; every other normal is flipped to agree with its tree parent.
+
+use std::cmp::Reverse;
+use std::collections::BinaryHeap;
+
+use glam::{DMat3, DVec3, Vec3};
+use rayon::prelude::*;
+
+use crate::knn::{check_points, GeometryError, PointIndex};
+
+/// How to orient the PCA normals.
+#[derive(Clone, Copy, Debug)]
+pub enum Orientation<'a> {
+    /// One sensor position per point.
+    Sensors(&'a [Vec3]),
+    /// Per point, the positions of every sensor that observed it (at least one each).
+    SensorSets(&'a [Vec<Vec3>]),
+    /// No sensor information: MST propagation (see the module docs).
+    Propagate,
+}
+
+/// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations: eigenvalues
+/// ascending and the matching unit eigenvectors.
+pub fn symmetric_eigen3(m: DMat3) -> ([f64; 3], [DVec3; 3]) {
+    let mut a = m.to_cols_array_2d(); // a[col][row]; symmetric, so indexing as a[i][j] is fine
+    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]; // columns = eigenvectors
+    for _sweep in 0..32 {
+        let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
+        let scale = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
+        if off <= 1e-30 * scale.max(1e-300) {
+            break;
+        }
+        for (p, q) in [(0usize, 1usize), (0, 2), (1, 2)] {
+            if a[p][q] == 0.0 {
+                continue;
+            }
+            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
+            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
+            let t = if theta == 0.0 { 1.0 } else { t };
+            let c = 1.0 / (t * t + 1.0).sqrt();
+            let s = t * c;
+            // A ← Jᵀ A J with J the rotation in the (p, q) plane.
+            for col in a.iter_mut() {
+                let akp = col[p];
+                let akq = col[q];
+                col[p] = c * akp - s * akq;
+                col[q] = s * akp + c * akq;
+            }
+            let (ap, aq) = (a[p], a[q]);
+            for k in 0..3 {
+                a[p][k] = c * ap[k] - s * aq[k];
+                a[q][k] = s * ap[k] + c * aq[k];
+            }
+            for row in &mut v {
+                let vp = row[p];
+                let vq = row[q];
+                row[p] = c * vp - s * vq;
+                row[q] = s * vp + c * vq;
+            }
+        }
+    }
+    let mut idx = [0usize, 1, 2];
+    idx.sort_by(|&i, &j| a[i][i].total_cmp(&a[j][j]));
+    let vals = idx.map(|i| a[i][i]);
+    let vecs = idx.map(|i| DVec3::new(v[0][i], v[1][i], v[2][i]).normalize_or_zero());
+    (vals, vecs)
+}
+
+/// Mean and covariance of points (f64).
+pub fn covariance(points: impl Iterator<Item = Vec3> + Clone) -> (DVec3, DMat3) {
+    let mut n = 0.0;
+    let mut mean = DVec3::ZERO;
+    for p in points.clone() {
+        mean += p.as_dvec3();
+        n += 1.0;
+    }
+    mean /= n;
+    let mut c = DMat3::ZERO;
+    for p in points {
+        let d = p.as_dvec3() - mean;
+        c += DMat3::from_cols(d * d.x, d * d.y, d * d.z);
+    }
+    (mean, c * (1.0 / n))
+}
+
+/// Unoriented PCA normals over the `k` nearest neighbours of each point (the point included).
+///
+/// A neighbourhood whose two smallest eigenvalues are both zero (collinear points) has no
+/// defined normal; it gets the eigenvector of the smallest anyway (some perpendicular).
+///
+/// # Errors
+/// `k < 3`; fewer than `k` points; a non-finite point.
+pub fn pca_normals(points: &[Vec3], k: usize) -> Result<(Vec<Vec3>, PointIndex), GeometryError> {
+    if k < 3 {
+        return Err(GeometryError::BadParameter {
+            field: "k",
+            value: k as f64,
+            expected: "at least 3 neighbours",
+        });
+    }
+    check_points("points", points)?;
+    if points.len() < k {
+        return Err(GeometryError::TooFew {
+            field: "points",
+            count: points.len(),
+            needed: k,
+        });
+    }
+    let index = PointIndex::new("points", points)?;
+    let normals = points
+        .par_iter()
+        .map(|&p| {
+            let nb = index.knn(p, k);
+            let (_, c) = covariance(nb.iter().map(|&(i, _)| points[i as usize]));
+            let (_, vecs) = symmetric_eigen3(c);
+            vecs[0].as_vec3()
+        })
+        .collect();
+    Ok((normals, index))
+}
+
+/// Oriented unit normals: PCA over `k` neighbours, oriented as `orientation` says (module docs).
+///
+/// # Errors
+/// As [`pca_normals`]; a sensor list whose length differs from the point count, an empty
+/// sensor set or a non-finite sensor position (field `"sensors"`).
+pub fn estimate_normals(
+    points: &[Vec3],
+    k: usize,
+    orientation: Orientation<'_>,
+) -> Result<Vec<Vec3>, GeometryError> {
+    let bad_len = |n: usize| GeometryError::BadParameter {
+        field: "sensors",
+        value: n as f64,
+        expected: "one entry per point",
+    };
+    match orientation {
+        Orientation::Sensors(s) => {
+            if s.len() != points.len() {
+                return Err(bad_len(s.len()));
+            }
+            check_points("sensors", s)?;
+        }
+        Orientation::SensorSets(s) => {
+            if s.len() != points.len() {
+                return Err(bad_len(s.len()));
+            }
+            for (i, set) in s.iter().enumerate() {
+                if set.is_empty() {
+                    return Err(GeometryError::TooFew {
+                        field: "sensors",
+                        count: 0,
+                        needed: 1,
+                    });
+                }
+                if let Some(v) = set.iter().find(|v| !v.is_finite()) {
+                    return Err(GeometryError::NonFinite {
+                        field: "sensors",
+                        index: i,
+                        value: *v,
+                    });
+                }
+            }
+        }
+        Orientation::Propagate => {}
+    }
+    let (mut normals, index) = pca_normals(points, k)?;
+    match orientation {
+        Orientation::Sensors(s) => {
+            normals.par_iter_mut().enumerate().for_each(|(i, n)| {
+                if n.dot(s[i] - points[i]) < 0.0 {
+                    *n = -*n;
+                }
+            });
+        }
+        Orientation::SensorSets(s) => {
+            normals.par_iter_mut().enumerate().for_each(|(i, n)| {
+                let p = points[i];
+                let vote: i32 = s[i]
+                    .iter()
+                    .map(|&q| if n.dot(q - p) >= 0.0 { 1 } else { -1 })
+                    .sum();
+                let flip = if vote == 0 {
+                    let nearest = s[i]
+                        .iter()
+                        .min_by(|a, b| a.distance_squared(p).total_cmp(&b.distance_squared(p)))
+                        .copied()
+                        .unwrap_or(p);
+                    n.dot(nearest - p) < 0.0
+                } else {
+                    vote < 0
+                };
+                if flip {
+                    *n = -*n;
+                }
+            });
+        }
+        Orientation::Propagate => propagate(points, &mut normals, &index, k),
+    }
+    Ok(normals)
+}
+
+/// MST orientation propagation over the symmetric k-NN graph (module docs).
+fn propagate(points: &[Vec3], normals: &mut [Vec3], index: &PointIndex, k: usize) {
+    let n = points.len();
+    let nbrs: Vec<Vec<u32>> = points
+        .par_iter()
+        .map(|&p| index.knn(p, k).into_iter().map(|(i, _)| i).collect())
+        .collect();
+    // Symmetrise.
+    let mut adj: Vec<Vec<u32>> = nbrs.clone();
+    for (i, list) in nbrs.iter().enumerate() {
+        for &j in list {
+            if j as usize != i {
+                adj[j as usize].push(i as u32);
+            }
+        }
+    }
+    for l in &mut adj {
+        l.sort_unstable();
+        l.dedup();
+    }
+    let (centroid, _) = covariance(points.iter().copied());
+    let centroid = centroid.as_vec3();
+    // Seeds: process points by decreasing distance from the centroid; each not-yet-visited one
+    // starts a new component.
+    let mut order: Vec<u32> = (0..n as u32).collect();
+    order.sort_by(|&a, &b| {
+        points[b as usize]
+            .distance_squared(centroid)
+            .total_cmp(&points[a as usize].distance_squared(centroid))
+    });
+    let mut visited = vec![false; n];
+    let mut heap: BinaryHeap<(Reverse<u32>, u32, u32)> = BinaryHeap::new();
+    for &seed in &order {
+        if visited[seed as usize] {
+            continue;
+        }
+        let s = seed as usize;
+        if normals[s].dot(points[s] - centroid) < 0.0 {
+            normals[s] = -normals[s];
+        }
+        visited[s] = true;
+        let push = |heap: &mut BinaryHeap<_>, from: u32, normals: &[Vec3], visited: &[bool]| {
+            for &j in &adj[from as usize] {
+                if !visited[j as usize] {
+                    let w = 1.0 - normals[from as usize].dot(normals[j as usize]).abs();
+                    // Costs in [0, 1] quantised to u32 for a total order.
+                    let key = (w.clamp(0.0, 1.0) * 1.0e9) as u32;
+                    heap.push((Reverse(key), j, from));
+                }
+            }
+        };
+        push(&mut heap, seed, normals, &visited);
+        while let Some((_, j, parent)) = heap.pop() {
+            let ju = j as usize;
+            if visited[ju] {
+                continue;
+            }
+            visited[ju] = true;
+            if normals[ju].dot(normals[parent as usize]) < 0.0 {
+                normals[ju] = -normals[ju];
+            }
+            push(&mut heap, j, normals, &visited);
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn sphere(n: usize) -> Vec<Vec3> {
+        // Fibonacci sphere, radius 2 m, centred at (1, 2, 3).
+        let g = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+        (0..n)
+            .map(|i| {
+                let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+                let r = (1.0 - z * z).sqrt();
+                let t = g * i as f32;
+                Vec3::new(1.0, 2.0, 3.0) + 2.0 * Vec3::new(r * t.cos(), r * t.sin(), z)
+            })
+            .collect()
+    }
+
+    #[test]
+    fn jacobi_eigen_matches_a_known_decomposition() {
+        // Diagonal (1, 2, 5) rotated: eigenvalues are recovered to f64 round-off (≤ 1e-12).
+        let r = DMat3::from_rotation_z(0.4) * DMat3::from_rotation_x(1.1);
+        let m = r * DMat3::from_diagonal(DVec3::new(5.0, 1.0, 2.0)) * r.transpose();
+        let (vals, vecs) = symmetric_eigen3(m);
+        for (got, want) in vals.iter().zip([1.0, 2.0, 5.0]) {
+            assert!((got - want).abs() < 1e-12, "{vals:?}");
+        }
+        assert!((m * vecs[0] - vecs[0]).length() < 1e-12);
+    }
+
+    #[test]
+    fn sphere_normals_are_radial_and_outward_with_sensors_and_with_propagation() {
+        // 4000 points on a 2 m sphere: mean spacing √(4π·4/4000) ≈ 0.11 m; 16 neighbours span
+        // ≈ 0.25 m, where the sphere deviates from its tangent plane by r²/2R ≈ 0.016 m: the
+        // PCA normal of a symmetric cap is radial up to the Fibonacci lattice's asymmetry, so
+        // ask for < 3° (cos > 0.9986).
+        let pts = sphere(4000);
+        let c = Vec3::new(1.0, 2.0, 3.0);
+        let sensors: Vec<Vec3> = pts.iter().map(|&p| c + (p - c) * 5.0).collect();
+        for o in [Orientation::Sensors(&sensors), Orientation::Propagate] {
+            let n = estimate_normals(&pts, 16, o).unwrap();
+            for (p, n) in pts.iter().zip(&n) {
+                let radial = (*p - c).normalize();
+                assert!(n.dot(radial) > 0.9986, "{p} {n}");
+            }
+        }
+        // Sensors inside the sphere turn every normal inward.
+        let inside: Vec<Vec<Vec3>> = pts.iter().map(|_| vec![c, c + Vec3::X * 0.1]).collect();
+        let n = estimate_normals(&pts, 16, Orientation::SensorSets(&inside)).unwrap();
+        assert!(pts.iter().zip(&n).all(|(p, n)| n.dot(*p - c) < 0.0));
+    }
+
+    #[test]
+    fn normals_reject_bad_k_too_few_nan_and_bad_sensors() {
+        let pts = sphere(10);
+        assert!(matches!(
+            estimate_normals(&pts, 2, Orientation::Propagate),
+            Err(GeometryError::BadParameter { field: "k", .. })
+        ));
+        assert_eq!(
+            estimate_normals(&pts, 11, Orientation::Propagate).unwrap_err(),
+            GeometryError::TooFew {
+                field: "points",
+                count: 10,
+                needed: 11
+            }
+        );
+        let mut bad = pts.clone();
+        bad[3].z = f32::INFINITY;
+        assert!(matches!(
+            estimate_normals(&bad, 5, Orientation::Propagate),
+            Err(GeometryError::NonFinite {
+                field: "points",
+                index: 3,
+                ..
+            })
+        ));
+        assert!(matches!(
+            estimate_normals(&pts, 5, Orientation::Sensors(&pts[..3])),
+            Err(GeometryError::BadParameter {
+                field: "sensors",
+                ..
+            })
+        ));
+        let empty: Vec<Vec<Vec3>> = vec![Vec::new(); 10];
+        assert!(matches!(
+            estimate_normals(&pts, 5, Orientation::SensorSets(&empty)),
+            Err(GeometryError::TooFew {
+                field: "sensors",
+                ..
+            })
+        ));
+    }
+}

@@ -1,0 +1,732 @@
+//! Screened Poisson surface reconstruction (Kazhdan & Hoppe 2013) on a hierarchy of regular
+//! grids, iso-surface by marching tetrahedra ([`super::iso`]), and density trimming.
+//!
+//! What is solved. The indicator χ minimises
+//! E(χ) = ∫‖∇χ − V‖² + (screening of χ toward a constant at the samples, below), where V is the oriented
+//! normal field spread from the samples: each sample p with unit normal nₚ and area share aₚ
+//! (π·r²/k, r the distance to its k-th neighbour) deposits nₚ·aₚ/h³ with trilinear weights on a
+//! staggered grid (V's x component on x-directed edges, etc.), so that χ jumps by ≈ 1 across
+//! the sampled surface, increasing outward. Discretely, with χ on grid nodes of spacing h:
+//! E = Σ_edges h·(χⱼ − χᵢ − h·V_e)² + Σₚ βₚ·(Σᵢ tₚᵢ χᵢ)², tₚᵢ the trilinear weights of p,
+//! βₚ = α·h·aₚ/h² (the screening weight of K&H, α·Area/N per sample, scaled by 2^depth as in
+//! their reference implementation, which in metric units is aₚ/h). The normal equations are
+//! (L + Σₚ (βₚ/h)·tₚtₚᵀ)·χ = h·D·V with L the 7-point graph Laplacian (natural Neumann boundary)
+//! and D the signed edge-to-node incidence (a discrete −divergence). The system is symmetric
+//! positive definite for α > 0.
+//!
+//! How it is solved (a cascadic multigrid): the same system is assembled on `levels + 1` nested
+//! grids (cell sizes h·2^j), solved by Jacobi-preconditioned conjugate gradients on the coarsest,
+//! and each solution, trilinearly prolonged, starts CG on the next finer grid. The grids are
+//! regular and cover the padded bounding box of the samples — **not** an adaptive octree: memory
+//! and time grow with the box volume at the finest cell size, not with the surface area. The
+//! iso-value is the mean of χ at the samples (K&H); the surface is extracted on every cell of the
+//! finest grid, closed by a ring of outside nodes, so the untrimmed mesh is watertight.
+//!
+//! Trimming ([`trim_by_density`]) follows Open3D's habit: each vertex carries a support density
+//! (input samples within `density_radius_cells` finest cells of it); vertices below the Q
+//! quantile are removed, with every face that used one.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use rayon::prelude::*;
+
+use super::iso::{marching_tetrahedra, GridField};
+use super::normals::{covariance, symmetric_eigen3};
+use super::TriMesh;
+use crate::knn::{check_points, GeometryError, PointIndex};
+
+/// Settings of [`screened_poisson`].
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PoissonParams {
+    /// Finest grid: cell size = padded largest extent / 2^depth. 1..=10.
+    pub depth: u32,
+    /// Coarser grids used by the cascadic solve (0 = solve on the finest grid only).
+    pub levels: u32,
+    /// Screening weight α (K&H default 4; 0 is the unscreened Poisson reconstruction).
+    pub screening: f32,
+    /// CG stops at ‖r‖ ≤ tolerance·‖b‖ on each grid.
+    pub cg_tolerance: f32,
+    /// CG iteration cap per grid.
+    pub max_cg_iterations: usize,
+    /// Padding of the bounding box on each side, fraction of its largest extent (at least 3
+    /// cells are always added).
+    pub padding: f32,
+    /// Neighbours used for each sample's area share.
+    pub area_k: usize,
+    /// Radius, in finest cells, within which samples count toward a vertex's density.
+    pub density_radius_cells: f32,
+}
+
+impl Default for PoissonParams {
+    fn default() -> Self {
+        PoissonParams {
+            depth: 8,
+            levels: 4,
+            screening: 4.0,
+            cg_tolerance: 1e-4,
+            max_cg_iterations: 400,
+            padding: 0.1,
+            area_k: 8,
+            density_radius_cells: 2.0,
+        }
+    }
+}
+
+/// Solver statistics of one grid level.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct LevelStats {
+    /// Cell size, metres.
+    pub cell_m: f32,
+    /// Node counts.
+    pub dims: [usize; 3],
+    /// CG iterations run.
+    pub cg_iterations: usize,
+    /// Final ‖r‖/‖b‖.
+    pub relative_residual: f64,
+}
+
+/// Result of [`screened_poisson`].
+#[derive(Clone, Debug)]
+pub struct PoissonOutput {
+    /// The closed (untrimmed) iso-surface.
+    pub mesh: TriMesh,
+    /// Support density of each vertex (samples within the density radius).
+    pub vertex_density: Vec<f32>,
+    /// Iso-value: mean of χ at the samples.
+    pub iso_value: f32,
+    /// Finest cell size, metres.
+    pub cell_m: f32,
+    /// Finest grid node counts.
+    pub dims: [usize; 3],
+    /// Per level, coarse to fine.
+    pub levels: Vec<LevelStats>,
+    /// Seconds in the linear solves (all levels, including assembly).
+    pub solve_s: f64,
+    /// Seconds in iso-surface extraction and vertex densities.
+    pub extract_s: f64,
+}
+
+/// Largest grid the solver accepts, in nodes (≈ 1.1 GB of f32 work vectors).
+pub const MAX_NODES: usize = 40_000_000;
+
+fn bad(field: &'static str, value: f64, expected: &'static str) -> GeometryError {
+    GeometryError::BadParameter {
+        field,
+        value,
+        expected,
+    }
+}
+
+fn check_params(p: &PoissonParams) -> Result<(), GeometryError> {
+    if !(1..=10).contains(&p.depth) {
+        return Err(bad("depth", p.depth as f64, "in 1..=10"));
+    }
+    if p.levels >= p.depth {
+        return Err(bad("levels", p.levels as f64, "smaller than depth"));
+    }
+    if !(p.screening.is_finite() && p.screening >= 0.0) {
+        return Err(bad("screening", p.screening as f64, "finite and >= 0"));
+    }
+    if !(p.cg_tolerance.is_finite() && p.cg_tolerance > 0.0) {
+        return Err(bad("cg_tolerance", p.cg_tolerance as f64, "finite and > 0"));
+    }
+    if p.max_cg_iterations == 0 {
+        return Err(bad("max_cg_iterations", 0.0, "at least 1"));
+    }
+    if !(p.padding.is_finite() && p.padding >= 0.0) {
+        return Err(bad("padding", p.padding as f64, "finite and >= 0"));
+    }
+    if p.area_k < 2 {
+        return Err(bad("area_k", p.area_k as f64, "at least 2"));
+    }
+    if !(p.density_radius_cells.is_finite() && p.density_radius_cells > 0.0) {
+        return Err(bad(
+            "density_radius_cells",
+            p.density_radius_cells as f64,
+            "finite and > 0",
+        ));
+    }
+    Ok(())
+}
+
+/// A regular grid of nodes.
+#[derive(Clone, Copy, Debug)]
+struct Grid {
+    dims: [usize; 3],
+    origin: Vec3,
+    h: f32,
+}
+
+impl Grid {
+    fn len(&self) -> usize {
+        self.dims[0] * self.dims[1] * self.dims[2]
+    }
+    fn idx(&self, x: usize, y: usize, z: usize) -> usize {
+        x + self.dims[0] * (y + self.dims[1] * z)
+    }
+    /// Cell (clamped into the grid) and fractional position of p within it.
+    fn locate(&self, p: Vec3) -> ([usize; 3], Vec3) {
+        let u = (p - self.origin) / self.h;
+        let mut c = [0usize; 3];
+        let mut f = Vec3::ZERO;
+        for a in 0..3 {
+            let max_cell = self.dims[a].saturating_sub(2) as f32;
+            let fl = u[a].floor().clamp(0.0, max_cell);
+            c[a] = fl as usize;
+            f[a] = (u[a] - fl).clamp(0.0, 1.0);
+        }
+        (c, f)
+    }
+    fn interpolate(&self, v: &[f32], p: Vec3) -> f32 {
+        let (c, f) = self.locate(p);
+        let mut s = 0.0;
+        for (o, w) in corner_weights(f) {
+            s += w * v[self.idx(c[0] + o[0], c[1] + o[1], c[2] + o[2])];
+        }
+        s
+    }
+}
+
+/// The 8 corner offsets of a cell with their trilinear weights at fractional position f.
+fn corner_weights(f: Vec3) -> [([usize; 3], f32); 8] {
+    let mut out = [([0usize; 3], 0f32); 8];
+    for (c, slot) in out.iter_mut().enumerate() {
+        let o = [c & 1, (c >> 1) & 1, (c >> 2) & 1];
+        let w = (if o[0] == 1 { f.x } else { 1.0 - f.x })
+            * (if o[1] == 1 { f.y } else { 1.0 - f.y })
+            * (if o[2] == 1 { f.z } else { 1.0 - f.z });
+        *slot = (o, w);
+    }
+    out
+}
+
+/// The assembled system of one level.
+struct System {
+    grid: Grid,
+    /// Right-hand side h·D·V.
+    b: Vec<f32>,
+    /// Diagonal of the operator.
+    diag: Vec<f32>,
+    /// Samples sorted by cell: CSR offsets per cell (cells x fastest, (nx−1)·(ny−1)·(nz−1)).
+    cell_start: Vec<u32>,
+    /// Per sorted sample: fractional position in its cell.
+    frac: Vec<Vec3>,
+    /// Per sorted sample: screening coefficient βₚ/h.
+    coef: Vec<f32>,
+    /// Per sorted sample: its cell.
+    cell: Vec<[usize; 3]>,
+}
+
+impl System {
+    fn assemble(grid: Grid, points: &[Vec3], normals: &[Vec3], area: &[f32], alpha: f32) -> System {
+        let [nx, ny, nz] = grid.dims;
+        let h = grid.h;
+        // Staggered splat of V = Σ nₚ aₚ/h³ δₚ onto x-, y- and z-directed edges.
+        let edge_dims = [[nx - 1, ny, nz], [nx, ny - 1, nz], [nx, ny, nz - 1]];
+        let mut v: [Vec<f32>; 3] = edge_dims.map(|d| vec![0f32; d[0] * d[1] * d[2]]);
+        let inv_h3 = 1.0 / (h * h * h);
+        for ((&p, &n), &a) in points.iter().zip(normals).zip(area) {
+            for axis in 0..3 {
+                let d = edge_dims[axis];
+                let mut shift = Vec3::ZERO;
+                shift[axis] = 0.5 * h;
+                let eg = Grid {
+                    dims: d,
+                    origin: grid.origin + shift,
+                    h,
+                };
+                let (c, f) = eg.locate(p);
+                let m = n[axis] * a * inv_h3;
+                for (o, w) in corner_weights(f) {
+                    let (x, y, z) = (c[0] + o[0], c[1] + o[1], c[2] + o[2]);
+                    if x < d[0] && y < d[1] && z < d[2] {
+                        v[axis][x + d[0] * (y + d[1] * z)] += m * w;
+                    }
+                }
+            }
+        }
+        // b_i = h·(Σ_axis V(i − e_axis) − V(i)).
+        let mut b = vec![0f32; grid.len()];
+        b.par_chunks_mut(nx * ny).enumerate().for_each(|(z, slab)| {
+            for y in 0..ny {
+                for x in 0..nx {
+                    let mut s = 0.0;
+                    let i3 = [x, y, z];
+                    for axis in 0..3 {
+                        let d = edge_dims[axis];
+                        let e = |q: [usize; 3]| v[axis][q[0] + d[0] * (q[1] + d[1] * q[2])];
+                        if i3[axis] >= 1 {
+                            let mut q = i3;
+                            q[axis] -= 1;
+                            s += e(q);
+                        }
+                        if i3[axis] < d[axis] {
+                            s -= e(i3);
+                        }
+                    }
+                    slab[x + nx * y] = h * s;
+                }
+            }
+        });
+        // Samples sorted by cell.
+        let ncx = nx - 1;
+        let ncy = ny - 1;
+        let ncells = ncx * ncy * (nz - 1);
+        let located: Vec<([usize; 3], Vec3)> = points.par_iter().map(|&p| grid.locate(p)).collect();
+        let cell_id = |c: [usize; 3]| c[0] + ncx * (c[1] + ncy * c[2]);
+        let mut order: Vec<u32> = (0..points.len() as u32).collect();
+        order.sort_by_key(|&i| cell_id(located[i as usize].0));
+        let mut cell_start = vec![0u32; ncells + 1];
+        for &i in &order {
+            cell_start[cell_id(located[i as usize].0) + 1] += 1;
+        }
+        for c in 0..ncells {
+            cell_start[c + 1] += cell_start[c];
+        }
+        let frac: Vec<Vec3> = order.iter().map(|&i| located[i as usize].1).collect();
+        let cell: Vec<[usize; 3]> = order.iter().map(|&i| located[i as usize].0).collect();
+        let coef: Vec<f32> = order
+            .iter()
+            .map(|&i| alpha * area[i as usize] / (h * h))
+            .collect();
+        // Diagonal: graph degree + Σ coef·w².
+        let mut diag = vec![0f32; grid.len()];
+        for z in 0..nz {
+            for y in 0..ny {
+                for x in 0..nx {
+                    let deg = [x, y, z]
+                        .iter()
+                        .zip(grid.dims)
+                        .map(|(&i, n)| (i > 0) as u32 + (i + 1 < n) as u32)
+                        .sum::<u32>();
+                    diag[grid.idx(x, y, z)] = deg as f32;
+                }
+            }
+        }
+        for ((c, f), k) in cell.iter().zip(&frac).zip(&coef) {
+            for (o, w) in corner_weights(*f) {
+                diag[grid.idx(c[0] + o[0], c[1] + o[1], c[2] + o[2])] += k * w * w;
+            }
+        }
+        System {
+            grid,
+            b,
+            diag,
+            cell_start,
+            frac,
+            coef,
+            cell,
+        }
+    }
+
+    /// y = A·x.
+    fn apply(&self, x: &[f32], y: &mut [f32]) {
+        let g = self.grid;
+        let [nx, ny, nz] = g.dims;
+        // Screening: sₚ = coefₚ·(tₚ·x).
+        let s: Vec<f32> = self
+            .cell
+            .par_iter()
+            .zip(&self.frac)
+            .zip(&self.coef)
+            .map(|((c, f), k)| {
+                let mut v = 0.0;
+                for (o, w) in corner_weights(*f) {
+                    v += w * x[g.idx(c[0] + o[0], c[1] + o[1], c[2] + o[2])];
+                }
+                k * v
+            })
+            .collect();
+        let ncx = nx - 1;
+        let ncy = ny - 1;
+        y.par_chunks_mut(nx * ny).enumerate().for_each(|(z, slab)| {
+            for yy in 0..ny {
+                for xx in 0..nx {
+                    let i = g.idx(xx, yy, z);
+                    let xi = x[i];
+                    let mut acc = 0.0;
+                    if xx > 0 {
+                        acc += xi - x[i - 1];
+                    }
+                    if xx + 1 < nx {
+                        acc += xi - x[i + 1];
+                    }
+                    if yy > 0 {
+                        acc += xi - x[i - nx];
+                    }
+                    if yy + 1 < ny {
+                        acc += xi - x[i + nx];
+                    }
+                    if z > 0 {
+                        acc += xi - x[i - nx * ny];
+                    }
+                    if z + 1 < nz {
+                        acc += xi - x[i + nx * ny];
+                    }
+                    // Screening gathered from the (up to) 8 cells around the node.
+                    for cz in z.saturating_sub(1)..=z.min(nz - 2) {
+                        for cy in yy.saturating_sub(1)..=yy.min(ny - 2) {
+                            for cx in xx.saturating_sub(1)..=xx.min(nx - 2) {
+                                let cid = cx + ncx * (cy + ncy * cz);
+                                let (a, b) = (
+                                    self.cell_start[cid] as usize,
+                                    self.cell_start[cid + 1] as usize,
+                                );
+                                if a == b {
+                                    continue;
+                                }
+                                let o = [xx - cx, yy - cy, z - cz];
+                                for (f, sp) in self.frac[a..b].iter().zip(&s[a..b]) {
+                                    let w = (if o[0] == 1 { f.x } else { 1.0 - f.x })
+                                        * (if o[1] == 1 { f.y } else { 1.0 - f.y })
+                                        * (if o[2] == 1 { f.z } else { 1.0 - f.z });
+                                    acc += w * sp;
+                                }
+                            }
+                        }
+                    }
+                    slab[xx + nx * yy] = acc;
+                }
+            }
+        });
+    }
+}
+
+fn dot(a: &[f32], b: &[f32]) -> f64 {
+    a.par_iter()
+        .zip(b)
+        .map(|(&x, &y)| x as f64 * y as f64)
+        .sum()
+}
+
+/// Jacobi-preconditioned CG from the initial guess in `x`; returns (iterations, ‖r‖/‖b‖).
+fn cg(sys: &System, x: &mut [f32], tol: f32, max_iter: usize) -> (usize, f64) {
+    let n = x.len();
+    let bnorm = dot(&sys.b, &sys.b).sqrt();
+    if bnorm == 0.0 {
+        x.iter_mut().for_each(|v| *v = 0.0);
+        return (0, 0.0);
+    }
+    let mut ap = vec![0f32; n];
+    sys.apply(x, &mut ap);
+    let mut r: Vec<f32> = sys.b.par_iter().zip(&ap).map(|(b, a)| b - a).collect();
+    let mut z: Vec<f32> = r.par_iter().zip(&sys.diag).map(|(r, d)| r / d).collect();
+    let mut p = z.clone();
+    let mut rz = dot(&r, &z);
+    let mut rel = dot(&r, &r).sqrt() / bnorm;
+    let mut it = 0;
+    while it < max_iter && rel > tol as f64 {
+        sys.apply(&p, &mut ap);
+        let pap = dot(&p, &ap);
+        if pap <= 0.0 {
+            break;
+        }
+        let alpha = (rz / pap) as f32;
+        x.par_iter_mut().zip(&p).for_each(|(x, p)| *x += alpha * p);
+        r.par_iter_mut().zip(&ap).for_each(|(r, a)| *r -= alpha * a);
+        z.par_iter_mut()
+            .zip(&r)
+            .zip(&sys.diag)
+            .for_each(|((z, r), d)| *z = r / d);
+        let rz_new = dot(&r, &z);
+        let beta = (rz_new / rz) as f32;
+        rz = rz_new;
+        p.par_iter_mut()
+            .zip(&z)
+            .for_each(|(p, z)| *p = z + beta * *p);
+        rel = dot(&r, &r).sqrt() / bnorm;
+        it += 1;
+    }
+    (it, rel)
+}
+
+/// Trilinear prolongation from a grid to the next finer one (node 2i of the fine grid is node i
+/// of the coarse grid).
+fn prolong(coarse: &Grid, cv: &[f32], fine: &Grid) -> Vec<f32> {
+    let [nx, ny, _] = fine.dims;
+    let mut out = vec![0f32; fine.len()];
+    out.par_chunks_mut(nx * ny)
+        .enumerate()
+        .for_each(|(z, slab)| {
+            for y in 0..ny {
+                for x in 0..nx {
+                    let mut s = 0.0;
+                    let sp = |i: usize| -> [(usize, f32); 2] {
+                        if i.is_multiple_of(2) {
+                            [(i / 2, 1.0), (i / 2, 0.0)]
+                        } else {
+                            [(i / 2, 0.5), (i / 2 + 1, 0.5)]
+                        }
+                    };
+                    for (cx, wx) in sp(x) {
+                        for (cy, wy) in sp(y) {
+                            for (cz, wz) in sp(z) {
+                                let w = wx * wy * wz;
+                                if w != 0.0 {
+                                    s += w * cv[coarse.idx(cx, cy, cz)];
+                                }
+                            }
+                        }
+                    }
+                    slab[x + nx * y] = s;
+                }
+            }
+        });
+    out
+}
+
+/// Screened Poisson reconstruction of oriented samples (module docs). Normals need not be unit
+/// length (they are normalised) but must be non-zero and point out of the solid.
+///
+/// # Errors
+/// Bad parameters; empty, non-finite or too few (< 4, < `area_k` + 1) points; normals of another
+/// length than the points, non-finite or zero; all points on one plane or line
+/// ([`GeometryError::Degenerate`]); a finest grid above [`MAX_NODES`].
+pub fn screened_poisson(
+    points: &[Vec3],
+    normals: &[Vec3],
+    params: &PoissonParams,
+) -> Result<PoissonOutput, GeometryError> {
+    check_params(params)?;
+    check_points("points", points)?;
+    let needed = (params.area_k + 1).max(4);
+    if points.len() < needed {
+        return Err(GeometryError::TooFew {
+            field: "points",
+            count: points.len(),
+            needed,
+        });
+    }
+    if normals.len() != points.len() {
+        return Err(bad("normals", normals.len() as f64, "one normal per point"));
+    }
+    if let Some((index, &value)) = normals
+        .iter()
+        .enumerate()
+        .find(|(_, n)| !n.is_finite() || n.length_squared() == 0.0)
+    {
+        return Err(GeometryError::NonFinite {
+            field: "normals (non-finite or zero)",
+            index,
+            value,
+        });
+    }
+    let normals: Vec<Vec3> = normals.iter().map(|n| n.normalize()).collect();
+    // Degeneracy: the global covariance must have three non-negligible eigenvalues.
+    let (_, cov) = covariance(points.iter().copied());
+    let (ev, _) = symmetric_eigen3(cov);
+    if ev[0] <= 1e-10 * ev[2].max(f64::MIN_POSITIVE) {
+        return Err(GeometryError::Degenerate {
+            field: "points",
+            reason: format!(
+                "all points lie on one plane or line (covariance eigenvalues {:.3e}, {:.3e}, {:.3e} m²): no enclosed volume",
+                ev[0], ev[1], ev[2]
+            ),
+        });
+    }
+    let t_solve = Instant::now();
+    // Bounding box and the finest grid.
+    let (mut lo, mut hi) = (points[0], points[0]);
+    for &p in points {
+        lo = lo.min(p);
+        hi = hi.max(p);
+    }
+    let ext = hi - lo;
+    let max_ext = ext.max_element();
+    let h = max_ext * (1.0 + 2.0 * params.padding) / (1u64 << params.depth) as f32;
+    let pad_cells = ((params.padding * max_ext) / h).ceil().max(3.0) as usize;
+    let unit = 1usize << params.levels;
+    let mut cells = [0usize; 3];
+    let mut origin = Vec3::ZERO;
+    for a in 0..3 {
+        let raw = (ext[a] / h).ceil() as usize + 2 * pad_cells;
+        let rounded = raw.div_ceil(unit) * unit;
+        cells[a] = rounded;
+        origin[a] = lo[a] - (pad_cells as f32 + (rounded - raw) as f32 / 2.0) * h;
+    }
+    let nodes: usize = cells.iter().map(|c| c + 1).product();
+    if nodes > MAX_NODES {
+        return Err(bad(
+            "depth",
+            params.depth as f64,
+            "small enough that the finest grid has at most 40 M nodes",
+        ));
+    }
+    // Per-sample area share aₚ = π r_k² / k.
+    let index = PointIndex::new("points", points)?;
+    let k = params.area_k;
+    let min_area = (1e-3 * h) * (1e-3 * h);
+    let area: Vec<f32> = points
+        .par_iter()
+        .map(|&p| {
+            let nb = index.knn(p, k + 1);
+            let r2 = nb.last().map(|x| x.1).unwrap_or(0.0);
+            (std::f32::consts::PI * r2 / k as f32).max(min_area)
+        })
+        .collect();
+    // Cascadic solve, coarse to fine.
+    let mut levels = Vec::new();
+    let mut prev: Option<(Grid, Vec<f32>)> = None;
+    for j in (0..=params.levels).rev() {
+        let f = 1usize << j;
+        let grid = Grid {
+            dims: cells.map(|c| c / f + 1),
+            origin,
+            h: h * f as f32,
+        };
+        let sys = System::assemble(grid, points, &normals, &area, params.screening);
+        let mut x = match &prev {
+            Some((g, v)) => prolong(g, v, &grid),
+            None => vec![0f32; grid.len()],
+        };
+        let (its, rel) = cg(&sys, &mut x, params.cg_tolerance, params.max_cg_iterations);
+        levels.push(LevelStats {
+            cell_m: grid.h,
+            dims: grid.dims,
+            cg_iterations: its,
+            relative_residual: rel,
+        });
+        prev = Some((grid, x));
+    }
+    let (grid, chi) = prev.expect("at least one level");
+    let solve_s = t_solve.elapsed().as_secs_f64();
+    let t_ex = Instant::now();
+    let iso = (points
+        .par_iter()
+        .map(|&p| grid.interpolate(&chi, p) as f64)
+        .sum::<f64>()
+        / points.len() as f64) as f32;
+    let max_chi = chi.iter().copied().fold(f32::MIN, f32::max);
+    let outside = max_chi.max(iso) + 1.0;
+    let field = GridField {
+        dims: grid.dims,
+        origin: grid.origin,
+        cell_m: grid.h,
+        values: &chi,
+    };
+    let mesh = marching_tetrahedra(&field, iso, outside);
+    let radius = params.density_radius_cells * h;
+    let vertex_density: Vec<f32> = mesh
+        .vertices
+        .par_iter()
+        .map(|&v| index.within(v, radius).len() as f32)
+        .collect();
+    let extract_s = t_ex.elapsed().as_secs_f64();
+    Ok(PoissonOutput {
+        mesh,
+        vertex_density,
+        iso_value: iso,
+        cell_m: h,
+        dims: grid.dims,
+        levels,
+        solve_s,
+        extract_s,
+    })
+}
+
+/// Removes vertices whose density is below the `quantile` (in [0, 1)) of all vertex densities,
+/// and every face that used one; unused vertices are dropped.
+///
+/// # Errors
+/// `quantile` outside [0, 1); `density` of another length than the vertices.
+pub fn trim_by_density(
+    mesh: &TriMesh,
+    density: &[f32],
+    quantile: f32,
+) -> Result<TriMesh, GeometryError> {
+    if !(0.0..1.0).contains(&quantile) {
+        return Err(bad("trim quantile", quantile as f64, "in [0, 1)"));
+    }
+    if density.len() != mesh.vertices.len() {
+        return Err(bad(
+            "density",
+            density.len() as f64,
+            "one value per mesh vertex",
+        ));
+    }
+    if mesh.vertices.is_empty() {
+        return Ok(mesh.clone());
+    }
+    let mut sorted = density.to_vec();
+    sorted.sort_by(f32::total_cmp);
+    let thr = sorted[((quantile as f64) * (sorted.len() - 1) as f64).floor() as usize];
+    let mut out = TriMesh {
+        vertices: mesh.vertices.clone(),
+        faces: mesh
+            .faces
+            .iter()
+            .copied()
+            .filter(|f| f.iter().all(|&v| density[v as usize] >= thr))
+            .collect(),
+    };
+    out.remove_unused_vertices();
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn poisson_rejects_bad_parameters_and_degenerate_input() {
+        let pts: Vec<Vec3> = (0..50)
+            .map(|i| Vec3::new((i % 7) as f32, (i / 7) as f32, 0.0))
+            .collect();
+        let nrm = vec![Vec3::Z; 50];
+        let p = PoissonParams::default();
+        assert!(matches!(
+            screened_poisson(&pts, &nrm, &p),
+            Err(GeometryError::Degenerate {
+                field: "points",
+                ..
+            })
+        ));
+        let mut q = p.clone();
+        q.depth = 0;
+        assert!(matches!(
+            screened_poisson(&pts, &nrm, &q),
+            Err(GeometryError::BadParameter { field: "depth", .. })
+        ));
+        assert!(matches!(
+            screened_poisson(&pts, &nrm[..3], &p),
+            Err(GeometryError::BadParameter {
+                field: "normals",
+                ..
+            })
+        ));
+        assert!(matches!(
+            screened_poisson(&pts[..5], &nrm[..5], &p),
+            Err(GeometryError::TooFew { .. })
+        ));
+        let mut zn = nrm.clone();
+        zn[7] = Vec3::ZERO;
+        let mut bumpy = pts.clone();
+        bumpy[0].z = 1.0;
+        assert!(matches!(
+            screened_poisson(&bumpy, &zn, &p),
+            Err(GeometryError::NonFinite { index: 7, .. })
+        ));
+        let m = TriMesh::default();
+        assert!(trim_by_density(&m, &[], 1.0).is_err());
+        assert!(trim_by_density(&m, &[], -0.1).is_err());
+        assert!(trim_by_density(&m, &[1.0], 0.5).is_err());
+    }
+
+    #[test]
+    fn trim_drops_low_density_vertices_and_their_faces() {
+        // Tetrahedron; vertex 3 has the lowest density. Quantile 0.25 of (5, 6, 7, 1) is the
+        // sorted element ⌊0.25·3⌋ = 0 → threshold 1: nothing removed. Quantile 0.5 → element 1
+        // = 5: vertex 3 goes, and the three faces that use it; one face remains.
+        let m = TriMesh {
+            vertices: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z],
+            faces: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        };
+        let d = [5.0, 6.0, 7.0, 1.0];
+        assert_eq!(trim_by_density(&m, &d, 0.25).unwrap(), m);
+        let t = trim_by_density(&m, &d, 0.5).unwrap();
+        assert_eq!(t.faces, vec![[0, 2, 1]]);
+        assert_eq!(t.vertices, vec![Vec3::ZERO, Vec3::X, Vec3::Y]);
+        assert_eq!(t.topology().boundary_edges, 3);
+    }
+}
