@@ -14,12 +14,14 @@
 pub mod bp;
 pub mod eca;
 pub mod error;
+pub mod fft;
 pub mod fixed;
 pub mod geometry;
 pub mod linalg;
 pub mod ofdm;
 pub mod phase;
 pub mod template;
+pub mod window;
 
 pub use error::DspError;
 pub use fixed::{Q15, Q31};
