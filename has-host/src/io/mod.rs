@@ -1,0 +1,338 @@
+//! Mesh and point-cloud files: Wavefront OBJ ([`obj`]), PLY ([`ply`], ASCII and binary, meshes
+//! and point clouds with extra per-point properties) and the Mitsuba XML scenes that Sionna RT
+//! uses ([`mitsuba`]).
+//!
+//! Coordinates are read and written as given (metres, z up, as everywhere in `has`). Every write
+//! is atomic: the file is written to a temporary file in the same directory and renamed over the
+//! target, so a reader never sees half a file. Every error names the file and, where it applies,
+//! the line, element, field and value ([`MeshIoError`]).
+
+use std::fs::File;
+use std::io::{BufWriter, Write};
+use std::path::{Path, PathBuf};
+
+use crate::material::Material;
+use crate::scene::Object;
+
+pub mod mitsuba;
+pub mod obj;
+pub mod ply;
+
+pub use ply::{PlyData, PlyFormat};
+
+/// Why a mesh, point-cloud or scene file could not be read or written.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshIoError {
+    /// The operating system refused (missing file, permissions, disk full).
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// A text line (OBJ, PLY header or ASCII body) could not be parsed.
+    #[error("{path}:{line}: {msg}")]
+    Parse {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: usize,
+        /// What was wrong, quoting the offending text.
+        msg: String,
+    },
+    /// A PLY element instance (binary body, or a bad index) was malformed.
+    #[error("{path}: element '{element}' #{index}: {msg}")]
+    Element {
+        /// The file.
+        path: PathBuf,
+        /// PLY element name (`vertex`, `face`, ...).
+        element: String,
+        /// 0-based instance index.
+        index: usize,
+        /// What was wrong.
+        msg: String,
+    },
+    /// A vertex coordinate was NaN or infinite.
+    #[error("{path}: {element} #{index}: field '{field}' is not finite ({value})")]
+    NonFinite {
+        /// The file.
+        path: PathBuf,
+        /// `vertex` (PLY) or `v` (OBJ).
+        element: String,
+        /// 0-based vertex index.
+        index: usize,
+        /// `x`, `y` or `z`.
+        field: String,
+        /// The value read.
+        value: f64,
+    },
+    /// A material name that is not one of the ITU-R P.2040 materials.
+    #[error("{path}: unknown material '{name}' ({context}); known: {known}")]
+    UnknownMaterial {
+        /// The file.
+        path: PathBuf,
+        /// The name as written.
+        name: String,
+        /// Where it was used.
+        context: String,
+        /// The accepted names.
+        known: String,
+    },
+    /// The file is valid but uses something this reader does not support.
+    #[error("{path}: unsupported: {what}")]
+    Unsupported {
+        /// The file.
+        path: PathBuf,
+        /// What, quoting the construct.
+        what: String,
+    },
+    /// Malformed Mitsuba XML.
+    #[error("{path}:{line}: {msg}")]
+    Xml {
+        /// The file.
+        path: PathBuf,
+        /// 1-based line number.
+        line: u32,
+        /// What was wrong.
+        msg: String,
+    },
+    /// Data handed to a writer was inconsistent.
+    #[error("{path}: cannot write: {msg}")]
+    BadData {
+        /// The file.
+        path: PathBuf,
+        /// What was wrong.
+        msg: String,
+    },
+}
+
+impl MeshIoError {
+    pub(crate) fn io(path: &Path, source: std::io::Error) -> Self {
+        MeshIoError::Io {
+            path: path.to_path_buf(),
+            source,
+        }
+    }
+
+    pub(crate) fn unknown_material(path: &Path, name: &str, context: impl Into<String>) -> Self {
+        MeshIoError::UnknownMaterial {
+            path: path.to_path_buf(),
+            name: name.to_string(),
+            context: context.into(),
+            known: known_material_names(),
+        }
+    }
+}
+
+/// The material names accepted everywhere, comma-separated (`concrete, brick, ...`); the
+/// Sionna spelling `itu_concrete` is accepted too.
+pub fn known_material_names() -> String {
+    Material::all()
+        .map(Material::name)
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Reads a whole file, naming it in the error.
+pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, MeshIoError> {
+    std::fs::read(path).map_err(|e| MeshIoError::io(path, e))
+}
+
+/// Writes `path` atomically: `body` writes into a temporary file in the same directory, which is
+/// flushed and renamed over `path`. On error the temporary file is removed.
+pub fn atomic_write(
+    path: &Path,
+    body: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+) -> Result<(), MeshIoError> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
+        _ => PathBuf::from("."),
+    };
+    let file_name = path
+        .file_name()
+        .ok_or_else(|| MeshIoError::BadData {
+            path: path.to_path_buf(),
+            msg: "path has no file name".into(),
+        })?
+        .to_string_lossy()
+        .into_owned();
+    let tmp = dir.join(format!(".{file_name}.{}.tmp", std::process::id()));
+    let result = (|| -> std::io::Result<()> {
+        let f = File::create(&tmp)?;
+        let mut w = BufWriter::with_capacity(1 << 20, f);
+        body(&mut w)?;
+        w.flush()?;
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
+        std::fs::rename(&tmp, path)
+    })();
+    result.map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        MeshIoError::io(path, e)
+    })
+}
+
+/// Loads the objects of a mesh or scene file, by extension: `.obj` ([`obj::read_obj`]),
+/// `.ply` ([`ply::read_ply`], one object named after the file stem) or `.xml` (Mitsuba,
+/// [`mitsuba::read_mitsuba`]).
+///
+/// `material`, if given, overrides every object's material; otherwise materials come from the
+/// file (OBJ `usemtl`, Mitsuba `bsdf`), and a PLY file, which has none, is an error.
+pub fn load_objects(path: &Path, material: Option<Material>) -> Result<Vec<Object>, MeshIoError> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    let mut objects = match ext.as_str() {
+        "obj" => obj::read_obj(path, material)?,
+        "ply" => {
+            let m = material.ok_or_else(|| MeshIoError::Unsupported {
+                path: path.to_path_buf(),
+                what: "a PLY file carries no material; give one".into(),
+            })?;
+            let data = ply::read_ply(path)?;
+            vec![Object {
+                name: file_stem(path),
+                material: m,
+                triangles: data.triangles(),
+            }]
+        }
+        "xml" => mitsuba::read_mitsuba(path)?,
+        _ => {
+            return Err(MeshIoError::Unsupported {
+                path: path.to_path_buf(),
+                what: format!("file extension '{ext}' (expected obj, ply or xml)"),
+            })
+        }
+    };
+    if let Some(m) = material {
+        for o in &mut objects {
+            o.material = m;
+        }
+    }
+    Ok(objects)
+}
+
+/// Writes objects for viewing, by extension: `.obj` (one `o` group per object with its
+/// `usemtl itu_*` material) or `.ply` (binary little-endian, all triangles in one mesh with a
+/// per-vertex `object` index property).
+pub fn save_objects(path: &Path, objects: &[Object]) -> Result<(), MeshIoError> {
+    let ext = path
+        .extension()
+        .map(|e| e.to_string_lossy().to_ascii_lowercase())
+        .unwrap_or_default();
+    match ext.as_str() {
+        "obj" => obj::write_obj(path, objects),
+        "ply" => {
+            let mut data = PlyData::default();
+            let mut object_ids = Vec::new();
+            for (i, o) in objects.iter().enumerate() {
+                let before = data.vertices.len();
+                data.append_triangles(&o.triangles);
+                object_ids.resize(object_ids.len() + data.vertices.len() - before, i as f32);
+            }
+            data.properties.push(("object".into(), object_ids));
+            ply::write_ply(path, &data, PlyFormat::BinaryLittleEndian)
+        }
+        _ => Err(MeshIoError::Unsupported {
+            path: path.to_path_buf(),
+            what: format!("output extension '{ext}' (expected obj or ply)"),
+        }),
+    }
+}
+
+pub(crate) fn file_stem(path: &Path) -> String {
+    path.file_stem()
+        .map(|s| s.to_string_lossy().into_owned())
+        .unwrap_or_else(|| "mesh".into())
+}
+
+#[cfg(test)]
+pub(crate) mod testutil {
+    use std::path::PathBuf;
+
+    /// A fresh, empty directory under the target's temp dir, unique per test name.
+    pub fn tmp_dir(name: &str) -> PathBuf {
+        let d = std::env::temp_dir().join(format!("has-io-{}-{name}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&d);
+        std::fs::create_dir_all(&d).unwrap();
+        d
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shapes;
+    use glam::Vec3;
+
+    #[test]
+    fn atomic_write_leaves_no_temp_file_and_replaces_target() {
+        let d = testutil::tmp_dir("atomic");
+        let p = d.join("a.txt");
+        std::fs::write(&p, "old").unwrap();
+        atomic_write(&p, |w| w.write_all(b"new")).unwrap();
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "new");
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+        // A failing body leaves the old file and no temp file.
+        let e = atomic_write(&p, |_| Err(std::io::Error::other("boom"))).unwrap_err();
+        assert!(e.to_string().contains("boom"), "{e}");
+        assert_eq!(std::fs::read_to_string(&p).unwrap(), "new");
+        assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn save_and_load_objects_round_trip_through_obj_and_ply() {
+        let d = testutil::tmp_dir("roundtrip");
+        let b = shapes::axis_box(
+            "hall",
+            Material::Brick,
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(4.0, 2.0, 3.0),
+        )
+        .unwrap();
+        let g = shapes::ground(
+            "ground",
+            Material::WetGround,
+            glam::Vec2::splat(-5.0),
+            glam::Vec2::splat(5.0),
+            0.0,
+            (2, 2),
+        )
+        .unwrap();
+        let objs = vec![b, g];
+        save_objects(&d.join("s.obj"), &objs).unwrap();
+        let back = load_objects(&d.join("s.obj"), None).unwrap();
+        assert_eq!(back.len(), 2);
+        for (a, b) in objs.iter().zip(&back) {
+            assert_eq!(a.name, b.name);
+            assert_eq!(a.material, b.material);
+            assert_eq!(a.triangles, b.triangles);
+        }
+        save_objects(&d.join("s.ply"), &objs).unwrap();
+        let ply = load_objects(&d.join("s.ply"), Some(Material::Metal)).unwrap();
+        assert_eq!(ply.len(), 1);
+        let all: Vec<_> = objs.iter().flat_map(|o| o.triangles.clone()).collect();
+        assert_eq!(ply[0].triangles, all);
+        assert_eq!(ply[0].material, Material::Metal);
+    }
+
+    #[test]
+    fn load_objects_errors_name_the_file_and_problem() {
+        let d = testutil::tmp_dir("loaderr");
+        let missing = d.join("nope.obj");
+        let e = load_objects(&missing, None).unwrap_err();
+        assert!(e.to_string().contains("nope.obj"), "{e}");
+        std::fs::write(d.join("x.stl"), "solid").unwrap();
+        let e = load_objects(&d.join("x.stl"), None).unwrap_err();
+        assert!(e.to_string().contains("'stl'"), "{e}");
+        let data = PlyData {
+            vertices: vec![Vec3::ZERO, Vec3::X, Vec3::Y],
+            faces: vec![[0, 1, 2]],
+            ..Default::default()
+        };
+        ply::write_ply(&d.join("t.ply"), &data, PlyFormat::Ascii).unwrap();
+        let e = load_objects(&d.join("t.ply"), None).unwrap_err();
+        assert!(e.to_string().contains("no material"), "{e}");
+    }
+}
