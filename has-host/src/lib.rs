@@ -15,6 +15,7 @@ pub mod material;
 pub mod mesh;
 pub mod metrics;
 pub mod propagation;
+pub mod scenario;
 pub mod scene;
 pub mod shapes;
 

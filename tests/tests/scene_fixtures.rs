@@ -1,0 +1,122 @@
+//! The bundled scene fixtures load and have the geometry their comments state: the Sionna RT
+//! (Mitsuba XML + PLY) sample scene and the city-block TOML used by the paths benchmark.
+
+use std::path::PathBuf;
+
+use glam::Vec3;
+use has_host::io::mitsuba::read_mitsuba;
+use has_host::scenario::SceneSpec;
+use has_host::shapes::{signed_volume, surface_area};
+use has_host::Material;
+
+fn fixtures() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../fixtures")
+}
+
+fn bounds(tris: &[[Vec3; 3]]) -> (Vec3, Vec3) {
+    let mut lo = Vec3::splat(f32::INFINITY);
+    let mut hi = Vec3::splat(f32::NEG_INFINITY);
+    for v in tris.iter().flatten() {
+        lo = lo.min(*v);
+        hi = hi.max(*v);
+    }
+    (lo, hi)
+}
+
+#[test]
+fn sionna_sample_scene_loads_with_materials_and_transforms() {
+    let objs = read_mitsuba(&fixtures().join("sionna_small/scene.xml")).unwrap();
+    let names: Vec<_> = objs.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(names, ["floor", "wall", "shed"]);
+    let mats: Vec<_> = objs.iter().map(|o| o.material).collect();
+    assert_eq!(mats, [Material::Concrete, Material::Brick, Material::Metal]);
+    // Floor: one ASCII quad, 40 m x 40 m, facing up.
+    assert_eq!(objs[0].triangles.len(), 2);
+    assert!((surface_area(&objs[0].triangles) - 1600.0).abs() < 1e-3);
+    // Wall: closed 10 x 2 x 6 box from a binary PLY with normals (exact small integers, so
+    // the divergence-theorem volume is exact up to f64 rounding).
+    assert_eq!(objs[1].triangles.len(), 12);
+    assert!((signed_volume(&objs[1].triangles) - 120.0).abs() < 1e-9);
+    // Shed: the wall rotated by 90° about z ((x, y) → (−y, x)) then moved by (−12, 5, 0):
+    // x ∈ [−5, −3] − 12, y ∈ [−5, 5] + 5. cos/sin(90°) in f64 are exact to 6e-17.
+    let (lo, hi) = bounds(&objs[2].triangles);
+    assert!(
+        (lo - Vec3::new(-17.0, 0.0, 0.0)).abs().max_element() < 1e-5,
+        "{lo}"
+    );
+    assert!(
+        (hi - Vec3::new(-15.0, 10.0, 6.0)).abs().max_element() < 1e-5,
+        "{hi}"
+    );
+    assert!((signed_volume(&objs[2].triangles) - 120.0).abs() < 1e-3);
+}
+
+#[test]
+fn sionna_scene_can_be_embedded_in_a_toml_scene() {
+    let mut spec = SceneSpec::from_toml_str(
+        r#"
+[scene]
+[[scene.objects]]
+kind = "mesh"
+path = "sionna_small/scene.xml"
+name = "imported"
+offset = [100.0, 0.0, 0.0]
+
+[[scene.objects]]
+kind = "cylinder"
+name = "target"
+material = "metal"
+center = [100.0, -10.0]
+radius = 3.0
+height = 3.0
+"#,
+    )
+    .unwrap();
+    spec.set_base_dir(fixtures());
+    let scene = spec.build().unwrap();
+    let names: Vec<_> = scene.objects.iter().map(|o| o.name.as_str()).collect();
+    assert_eq!(
+        names,
+        ["imported/floor", "imported/wall", "imported/shed", "target"]
+    );
+    // A ray down onto the moved floor hits it at z = 0 and reports concrete.
+    let hit = scene
+        .closest_hit(Vec3::new(110.0, -15.0, 10.0), Vec3::NEG_Z, 0.0, 100.0)
+        .unwrap();
+    assert!((hit.t - 10.0).abs() < 1e-4);
+    assert_eq!(scene.material_of(hit.triangle), Material::Concrete);
+}
+
+#[test]
+fn city_block_fixture_builds_and_the_suggested_bs_is_in_the_open() {
+    let spec = SceneSpec::load(&fixtures().join("city_block.toml")).unwrap();
+    let scene = spec.build().unwrap();
+    assert_eq!(scene.objects.len(), 15);
+    let buildings = scene
+        .objects
+        .iter()
+        .filter(|o| o.name.starts_with('b'))
+        .count();
+    assert_eq!(buildings, 14);
+    // The suggested BS at (0, 0, 25) sees the ground below it and open sky above.
+    let bs = Vec3::new(0.0, 0.0, 25.0);
+    let down = scene.closest_hit(bs, Vec3::NEG_Z, 0.0, 100.0).unwrap();
+    assert_eq!(scene.objects[down.object as usize].name, "ground");
+    assert!((down.t - 25.0).abs() < 1e-4);
+    assert!(scene.closest_hit(bs, Vec3::Z, 0.0, 1e4).is_none());
+    // It sees down all four streets.
+    for d in [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y] {
+        assert!(scene.visible(bs, bs + 140.0 * d + Vec3::new(0.0, 0.0, -23.5)));
+    }
+}
+
+#[test]
+fn documented_example_scene_builds() {
+    let doc = std::fs::read_to_string(fixtures().join("../docs/scenario.md")).unwrap();
+    let start = doc.find("```toml\n").expect("docs/scenario.md has a toml example") + 8;
+    let len = doc[start..].find("```").unwrap();
+    let mut spec = SceneSpec::from_toml_str(&doc[start..start + len]).unwrap();
+    spec.set_base_dir(fixtures());
+    let scene = spec.build().unwrap();
+    assert_eq!(scene.objects.len(), 6);
+}
