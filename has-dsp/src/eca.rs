@@ -38,6 +38,12 @@
 //!   scale as `s`).
 //! * Doppler phasors `e^{j2π d n/N}` use the exact integer phase `(d·n) mod N` and `f64`
 //!   sine/cosine once per sample and Doppler bin (outside the `M²` inner loop).
+//! * The Q15 path's `d ≠ 0` columns carry their own rounding (σ² = LSB²/6 per sample). Clutter
+//!   cancellation does not suffer (zero-Doppler clutter lies in the exact `d = 0` columns), but
+//!   the projection moves by `−P⊥E·w − X·G⁻¹·Eᴴy` (E the rounding): negligible when the Doppler
+//!   columns are orthogonal (ECA over the CPI), several LSB² when short ECA-B/ECA-S batches make
+//!   them nearly collinear (Σ(G⁻¹)_mm grows with the condition number) and the reference is
+//!   weak. Use `D = 1` with short batches, as the literature does.
 //!
 //! Configuration is `&self` ([`Eca`]); the correlation matrices live in a caller-owned
 //! [`EcaWorkspace`] (for `M = 64` about 130 kB: box it on a host). For many surveillance channels
