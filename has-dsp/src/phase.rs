@@ -62,14 +62,18 @@ const fn build_quarter_table() -> [i16; QUARTER + 1] {
     t
 }
 
-/// `floor(x)` for finite `x` by truncation (vectorises, unlike `libm::floorf` on x86-64
-/// baseline): exact for every finite `f32` (`|x| ≥ 2²³` is already an integer and returned
-/// unchanged). NaN stays NaN.
+/// `floor(x)` with float operations only, so loops calling it vectorise on baseline SSE2 (unlike
+/// `libm::floorf` or an `as i32` round trip): `|x|` is rounded to an integer by adding and
+/// subtracting 2²³ (exact for `|x| < 2²³`, where the sum's ulp is 1), the sign restored, and 1
+/// taken off where that rounded up. `|x| ≥ 2²³` is already an integer and returned unchanged;
+/// NaN stays NaN. Exact for every `f32` (tested against `libm::floorf`).
 #[inline(always)]
 pub fn floor_f32(x: f32) -> f32 {
-    let t = (x as i32) as f32;
-    let f = if t > x { t - 1.0 } else { t };
-    if x.abs() < 8_388_608.0 {
+    const TWO23: f32 = 8_388_608.0;
+    let a = x.abs();
+    let r = ((a + TWO23) - TWO23).copysign(x);
+    let f = if r > x { r - 1.0 } else { r };
+    if a < TWO23 {
         f
     } else {
         x
@@ -86,20 +90,25 @@ pub fn phase_index(t: f32) -> u32 {
 }
 
 /// `e^{+j2π k/PHASE_STEPS}` as Q15 `(re, im)` from the quarter-wave table. `k` is taken modulo
-/// [`PHASE_STEPS`].
+/// [`PHASE_STEPS`]. Branch free (selects only): `cos(k) = sin(k + QUARTER)`.
 #[inline(always)]
 pub fn rotor_q15_index(k: u32) -> (i16, i16) {
+    (sin_q15(k.wrapping_add(QUARTER as u32)), sin_q15(k))
+}
+
+/// `sin(2π k / PHASE_STEPS)` in Q15 by quarter-wave symmetry.
+#[inline(always)]
+fn sin_q15(k: u32) -> i16 {
+    const Q: u32 = QUARTER as u32;
     let k = k & (PHASE_STEPS - 1);
-    let quadrant = k / QUARTER as u32;
-    let m = (k % QUARTER as u32) as usize;
-    // sin and cos of the angle within the quadrant; `m ≤ QUARTER − 1` so both indices are valid.
-    let s = SIN_QUARTER_Q15[m];
-    let c = SIN_QUARTER_Q15[QUARTER - m];
-    match quadrant {
-        0 => (c, s),
-        1 => (-s, c),
-        2 => (-c, -s),
-        _ => (s, -c),
+    let m = k & (2 * Q - 1); // position in the half cycle
+    let idx = if m > Q { 2 * Q - m } else { m };
+    let v = SIN_QUARTER_Q15[(idx as usize).min(QUARTER)];
+    // Table entries are in [0, 32767], so the negation cannot overflow.
+    if k >= 2 * Q {
+        -v
+    } else {
+        v
     }
 }
 
@@ -120,13 +129,14 @@ pub fn rotor_f32(t: f32) -> Complex<f32> {
     let th2 = th * th;
     let s = th * (1.0 + th2 * (-1.0 / 6.0 + th2 * (1.0 / 120.0 + th2 * (-1.0 / 5040.0))));
     let c = 1.0 + th2 * (-0.5 + th2 * (1.0 / 24.0 + th2 * (-1.0 / 720.0 + th2 * (1.0 / 40320.0))));
-    // Rotate by q quarter turns, q mod 4 (two's complement & 3 handles negative q).
-    let q = (q4 as i32) & 3;
-    let (re, im) = if q & 1 == 0 { (c, s) } else { (-s, c) };
-    if q & 2 == 0 {
-        Complex::new(re, im)
-    } else {
+    // Rotate by q quarter turns, q = q4 mod 4 in {0, 1, 2, 3}, in float (vectorises).
+    let q = q4 - 4.0 * floor_f32(0.25 * q4);
+    let odd = q == 1.0 || q == 3.0;
+    let (re, im) = if odd { (-s, c) } else { (c, s) };
+    if q >= 2.0 {
         Complex::new(-re, -im)
+    } else {
+        Complex::new(re, im)
     }
 }
 

@@ -8,7 +8,7 @@
 
 use super::{Backprojector, Interp, PhaseEval, Snapshot, VoxelGrid, CHUNK};
 use crate::fixed::CQ15;
-use crate::phase::{floor_f32, rotor_f32, rotor_f32_libm, rotor_q15};
+use crate::phase::{floor_f32, phase_index, rotor_f32, rotor_f32_libm, rotor_q15_index};
 use num_complex::Complex;
 
 /// Fills grid-local coordinates of voxels `start .. start + px.len()` (all slices equal length).
@@ -61,33 +61,22 @@ impl Geo {
         }
     }
 
-    /// Pass A of both paths: the bistatic range `r_V + r_R` of voxel `k < n` for receiver `a`,
-    /// handed to `f(k, r)`.
+    /// Pass A of both paths: `r[k] = r_V + r_R` of voxel `k < n` for receiver `a`. Three loops so
+    /// that the squares and sums vectorise around the scalar `sqrtss` of `libm::sqrtf`.
     #[inline(always)]
-    fn ranges(&self, n: usize, a: glam::Vec3, mut f: impl FnMut(usize, f32)) {
+    fn ranges(&self, n: usize, a: glam::Vec3, r: &mut [f32; CHUNK]) {
         let (px, py, pz, rv) = (&self.px[..n], &self.py[..n], &self.pz[..n], &self.rv[..n]);
+        let r = &mut r[..n];
         for k in 0..n {
             let (dx, dy, dz) = (px[k] - a.x, py[k] - a.y, pz[k] - a.z);
-            f(k, rv[k] + libm::sqrtf(dx * dx + dy * dy + dz * dz));
+            r[k] = dx * dx + dy * dy + dz * dz;
         }
-    }
-}
-
-/// `profile` read at fractional bin `x`, zero outside (linear: tapering over one bin).
-#[inline(always)]
-fn interp_f32<const LINEAR: bool>(profile: &[Complex<f32>], x: f32) -> Complex<f32> {
-    let zero = Complex::new(0.0, 0.0);
-    if LINEAR {
-        let fl = floor_f32(x);
-        let w = x - fl;
-        // A negative index wraps to a huge usize and reads as zero, as does one past the end.
-        let i = fl as isize as usize;
-        let s0 = profile.get(i).copied().unwrap_or(zero);
-        let s1 = profile.get(i.wrapping_add(1)).copied().unwrap_or(zero);
-        s0 + (s1 - s0) * w
-    } else {
-        let i = floor_f32(x + 0.5) as isize as usize;
-        profile.get(i).copied().unwrap_or(zero)
+        for x in r.iter_mut() {
+            *x = libm::sqrtf(*x);
+        }
+        for (x, &v) in r.iter_mut().zip(rv) {
+            *x += v;
+        }
     }
 }
 
@@ -113,55 +102,102 @@ fn run_f32_impl<const LINEAR: bool, const POLY: bool>(
 ) {
     let (r0, inv_dr, inv_lambda) = (bp.cfg.r0_m, bp.inv_dr, bp.inv_lambda);
     let len = snap.profile_len;
+    let zero = Complex::new(0.0f32, 0.0);
     let mut geo = Geo::new();
-    let (mut xs, mut re, mut im) = ([0f32; CHUNK], [0f32; CHUNK], [0f32; CHUNK]);
+    let mut rs = [0f32; CHUNK];
+    // Per element: bin (floor of the fractional bin, as f32), weight, rotor, gathered samples.
+    let (mut bin, mut w, mut c_re, mut c_im) =
+        ([0f32; CHUNK], [0f32; CHUNK], [0f32; CHUNK], [0f32; CHUNK]);
+    let (mut s0, mut s1) = ([zero; CHUNK], [zero; CHUNK]);
+    // The chunk's accumulators as struct of arrays, kept across the snapshot's elements.
+    let (mut a_re, mut a_im) = ([0f32; CHUNK], [0f32; CHUNK]);
     for (ci, acc) in acc.chunks_mut(CHUNK).enumerate() {
         let n = acc.len();
         geo.load(&bp.cfg.grid, first + ci * CHUNK, n, snap.tx);
+        for ((re, im), z) in a_re.iter_mut().zip(a_im.iter_mut()).zip(acc.iter()) {
+            (*re, *im) = (z.re, z.im);
+        }
         for (a, profile) in snap.rx.iter().zip(snap.profiles.chunks_exact(len)) {
-            // Pass A: range → fractional bin and rotor.
-            geo.ranges(n, *a, |k, r| {
-                xs[k] = (r - r0) * inv_dr;
+            let Some(last) = profile.len().checked_sub(1) else {
+                continue;
+            };
+            // Pass A (vectorises): range → bin, weight and rotor.
+            geo.ranges(n, *a, &mut rs);
+            for k in 0..n {
+                let r = rs[k];
+                let x = (r - r0) * inv_dr;
+                let fl = floor_f32(if LINEAR { x } else { x + 0.5 });
+                bin[k] = fl;
+                w[k] = x - fl;
                 let z = if POLY {
                     rotor_f32(r * inv_lambda)
                 } else {
                     rotor_f32_libm(r * inv_lambda)
                 };
-                re[k] = z.re;
-                im[k] = z.im;
-            });
-            // Pass B: gather, interpolate, rotate, accumulate.
-            for (((acc, &x), &re), &im) in acc.iter_mut().zip(&xs[..n]).zip(&re[..n]).zip(&im[..n])
-            {
-                *acc += interp_f32::<LINEAR>(profile, x) * Complex::new(re, im);
+                c_re[k] = z.re;
+                c_im[k] = z.im;
             }
+            // Pass B1 (scalar gathers): samples at the bin and the next one, zero outside. A
+            // negative bin wraps to a huge usize: out of range like one past the end.
+            let at = |i: usize| {
+                if i <= last {
+                    profile.get(i).copied().unwrap_or(zero)
+                } else {
+                    zero
+                }
+            };
+            for k in 0..n {
+                let i = bin[k] as isize as usize;
+                s0[k] = at(i);
+                if LINEAR {
+                    s1[k] = at(i.wrapping_add(1));
+                }
+            }
+            // Pass B2 (vectorises): interpolate, rotate, accumulate.
+            let (a_re, a_im) = (&mut a_re[..n], &mut a_im[..n]);
+            let (s0, s1, w, c_re, c_im) = (&s0[..n], &s1[..n], &w[..n], &c_re[..n], &c_im[..n]);
+            for k in 0..n {
+                let s = if LINEAR {
+                    s0[k] * (1.0 - w[k]) + s1[k] * w[k]
+                } else {
+                    s0[k]
+                };
+                a_re[k] += s.re * c_re[k] - s.im * c_im[k];
+                a_im[k] += s.re * c_im[k] + s.im * c_re[k];
+            }
+        }
+        for ((z, &re), &im) in acc.iter_mut().zip(&a_re[..n]).zip(&a_im[..n]) {
+            *z = Complex::new(re, im);
         }
     }
 }
 
-/// Q15 sample `(re, im)` of `profile` at fractional bin `x`, zero outside. Linear: `s0 +
-/// round((s1 − s0)·w)` with `w` the Q15 fraction (`(s1 − s0)·w` < 2¹⁶·2¹⁵ fits `i32`), result
-/// between `s0` and `s1` so within `i16` range.
+/// Q15 sample `(re, im)` of `profile` at bin `i` + Q15 fraction `w` (linear) or at bin `i`
+/// (nearest), zero outside; branch free. Linear: `s0 + round((s1 − s0)·w)`
+/// with `w` in \[0, 32767\] (`(s1 − s0)·w` < 2¹⁶·2¹⁵ fits `i32`); the result lies between `s0`
+/// and `s1`, so within `i16` range.
 #[inline(always)]
-fn interp_q15<const LINEAR: bool>(profile: &[CQ15], x: f32) -> (i32, i32) {
-    let get = |i: usize| {
-        profile
-            .get(i)
-            .map_or((0, 0), |z| (z.re.to_bits() as i32, z.im.to_bits() as i32))
+fn interp_q15<const LINEAR: bool>(profile: &[CQ15], i: i32, w: i32) -> (i32, i32) {
+    let Some(last) = profile.len().checked_sub(1) else {
+        return (0, 0);
     };
+    let at = |i: usize| {
+        let valid = (i <= last) as i32;
+        profile.get(i.min(last)).map_or((0, 0), |z| {
+            (z.re.to_bits() as i32 * valid, z.im.to_bits() as i32 * valid)
+        })
+    };
+    // A negative index wraps to a huge usize: out of range like one past the end.
+    let i = i as isize as usize;
     if LINEAR {
-        let fl = floor_f32(x);
-        // w in [0, 32767]: x − fl < 1 exactly, and `as` truncates.
-        let w = ((x - fl) * 32768.0) as i32;
-        let i = fl as isize as usize;
-        let (a_re, a_im) = get(i);
-        let (b_re, b_im) = get(i.wrapping_add(1));
+        let (a_re, a_im) = at(i);
+        let (b_re, b_im) = at(i.wrapping_add(1));
         (
             a_re + (((b_re - a_re) * w + (1 << 14)) >> 15),
             a_im + (((b_im - a_im) * w + (1 << 14)) >> 15),
         )
     } else {
-        get(floor_f32(x + 0.5) as isize as usize)
+        at(i)
     }
 }
 
@@ -191,7 +227,8 @@ fn run_q15_impl<const LINEAR: bool>(
     let (r0, inv_dr, inv_lambda) = (bp.cfg.r0_m, bp.inv_dr, bp.inv_lambda);
     let len = snap.profile_len;
     let mut geo = Geo::new();
-    let (mut xs, mut ts) = ([0f32; CHUNK], [0f32; CHUNK]);
+    let mut rs = [0f32; CHUNK];
+    let (mut bins, mut ws, mut phs) = ([0i32; CHUNK], [0i32; CHUNK], [0u32; CHUNK]);
     for (ci, acc) in acc.chunks_mut(CHUNK).enumerate() {
         let n = acc.len();
         geo.load(&bp.cfg.grid, first + ci * CHUNK, n, snap.tx);
@@ -208,13 +245,27 @@ fn run_q15_impl<const LINEAR: bool>(
                 continue;
             }
             let half = if shift == 0 { 0 } else { 1i64 << (shift - 1) };
-            geo.ranges(n, *a, |k, r| {
-                xs[k] = (r - r0) * inv_dr;
-                ts[k] = r * inv_lambda;
-            });
-            for ((acc, &x), &t) in acc.iter_mut().zip(&xs[..n]).zip(&ts[..n]) {
-                let (s_re, s_im) = interp_q15::<LINEAR>(profile, x);
-                let (c_re, c_im) = rotor_q15(t);
+            geo.ranges(n, *a, &mut rs);
+            // Pass A (vectorises): bin, Q15 fraction, phase step.
+            for k in 0..n {
+                let r = rs[k];
+                let x = (r - r0) * inv_dr;
+                if LINEAR {
+                    let fl = floor_f32(x);
+                    bins[k] = fl as i32;
+                    // In [0, 32767]: x − fl < 1 exactly, and `as` truncates.
+                    ws[k] = ((x - fl) * 32768.0) as i32;
+                } else {
+                    bins[k] = floor_f32(x + 0.5) as i32;
+                }
+                phs[k] = phase_index(r * inv_lambda);
+            }
+            // Pass B: gather, interpolate, rotate (exact Q30), accumulate.
+            for (((acc, &i), &w), &ph) in
+                acc.iter_mut().zip(&bins[..n]).zip(&ws[..n]).zip(&phs[..n])
+            {
+                let (s_re, s_im) = interp_q15::<LINEAR>(profile, i, w);
+                let (c_re, c_im) = rotor_q15_index(ph);
                 let (c_re, c_im) = (c_re as i32, c_im as i32);
                 // |s| components ≤ 2¹⁵, rotor components ≤ 32767: each sum < 2³¹.
                 let p_re = s_re * c_re - s_im * c_im;
