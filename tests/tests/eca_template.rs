@@ -185,6 +185,31 @@ proptest! {
         prop_assert!(d <= 0.65, "max difference {} LSB", d);
     }
 
+    /// The common (whole-block) fit, same Q15 inputs: the same bound as the per-frame fit, since
+    /// the f32 path's correlation error is still ≤ 64·2⁻²⁴ of Σ|t||y| per chunk (chunks summed
+    /// in f64 across frames) and the gain divides by F·‖t‖² against a numerator of F frames.
+    /// Assert ≤ 0.65 LSB per component.
+    #[test]
+    fn q15_common_template_fit_matches_f32_on_the_same_q15_inputs(
+        seed in any::<u64>(),
+        at in 0.25f32..0.5,
+        g_mag in 0.0f32..1.0,
+        g_phase in -std::f32::consts::PI..std::f32::consts::PI,
+        bins in 16usize..300,
+        frames in 1usize..6,
+    ) {
+        let t = lcg_signal(seed, bins, at);
+        let g = C32::from_polar(g_mag, g_phase);
+        let r = lcg_signal(seed.wrapping_add(7), bins * frames, 0.1);
+        let y: Vec<C32> = r.iter().enumerate().map(|(i, rv)| g * t[i % bins] + rv).collect();
+        let (tq, mut yq) = (q(&t), q(&y));
+        let (tf, mut yf) = (f(&tq), f(&yq));
+        Template::new(&tf, bins, 0.0).unwrap().subtract_block_common(&mut yf).unwrap();
+        TemplateQ15::new(&tq, bins, 0.0).unwrap().subtract_block_common(&mut yq).unwrap();
+        let d = max_diff_lsb(&f(&yq), &yf);
+        prop_assert!(d <= 0.65, "max difference {} LSB", d);
+    }
+
     /// Template subtraction, same float inputs, Q15 path on the rounded ones. Error sources (each
     /// LSB²/6 per complex sample): rounding of y (passed except a 1/bins fraction), rounding of t
     /// scaled by the gain (|g|²·LSB²/6), output rounding; the gain's own error from the rounded
