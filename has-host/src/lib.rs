@@ -9,11 +9,13 @@
 
 pub use has_dsp::geometry::{bistatic_range, wavelength_m, C_M_PER_S};
 
+pub mod channel;
 pub mod io;
 pub mod knn;
 pub mod material;
 pub mod mesh;
 pub mod metrics;
+pub mod paths;
 pub mod propagation;
 pub mod scenario;
 pub mod scene;

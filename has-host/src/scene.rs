@@ -166,6 +166,41 @@ impl Scene {
         }
     }
 
+    /// [`Scene::closest_hit`] ignoring every triangle for which `skip(triangle)` is true (e.g. the
+    /// facet a reflected ray leaves from).
+    pub fn closest_hit_skipping(
+        &self,
+        origin: Vec3,
+        dir: Vec3,
+        tmin: f32,
+        tmax: f32,
+        skip: impl Fn(u32) -> bool,
+    ) -> Option<Hit> {
+        let ray = Ray::new(Vec3A::from(origin), Vec3A::from(dir), tmin, tmax);
+        let mut hit = RayHit::none();
+        let tris = &self.triangles;
+        let idx = &self.bvh.primitive_indices;
+        if self.bvh.ray_traverse(ray, &mut hit, |r, id| {
+            let tri = idx[id];
+            if skip(tri) {
+                f32::INFINITY
+            } else {
+                tris[tri as usize].intersect(r)
+            }
+        }) {
+            let tri = idx[hit.primitive_id as usize];
+            Some(Hit {
+                t: hit.t,
+                triangle: tri,
+                object: self.tri_object[tri as usize],
+                point: origin + dir * hit.t,
+                normal: self.normal_of(tri),
+            })
+        } else {
+            None
+        }
+    }
+
     /// True if the open segment from `a` to `b` (shortened by [`SURFACE_EPS_M`] at both ends)
     /// crosses no triangle.
     pub fn visible(&self, a: Vec3, b: Vec3) -> bool {

@@ -1,0 +1,948 @@
+//! Propagation paths between a transmitter and a receiver for channel prediction: line of sight
+//! and specular reflections up to a configurable order, with exact (image-method) geometry.
+//!
+//! # Method
+//! 1. **Facets.** The scene's triangles are grouped into planar facets ([`Facets::build`]): region
+//!    growing over shared edges within one object, a triangle joining when its normal is within
+//!    `facet_angle_tol_rad` of the region's area-weighted normal and its vertices within
+//!    `facet_dist_tol_m` of the region's plane. A box wall becomes one facet; a noisy wall of a
+//!    reconstructed (Poisson) mesh becomes one facet whose plane is the area-weighted fit, with a
+//!    `thickness` (largest vertex distance from that plane) used as the tolerance of its checks.
+//! 2. **Candidates, once per transmitter** ([`Tracer::prepare_tx`]). Shoot-and-bounce rays
+//!    (`sbr_rays` directions on a Fibonacci sphere, specular bounces off the facet planes up to
+//!    `max_order`) record every facet sequence they meet; each sequence gets its chain of
+//!    transmitter images. The result is reused for every receiver: with one BS and 500 UEs the
+//!    launching is paid once. [`CandidateMode::Exhaustive`] enumerates every sequence instead
+//!    (small scenes and reference tests).
+//! 3. **Per receiver** ([`Tracer::trace`]): the image method back-traces each candidate from the
+//!    receiver (plane crossings in f64, facet bounding box first), then validates the path with
+//!    the BVH: the ray from the receiver (or the previous reflection point) towards each
+//!    reflection point must first hit a triangle of that facet (this is both the "inside the facet
+//!    polygon" and the visibility test; a miss through a crack between two triangles falls back to
+//!    an exact point-in-facet test), and the last leg to the transmitter must be unobstructed.
+//!    Paths are sorted by delay and exact duplicates dropped.
+//!
+//! Diffraction is **not** modelled (no edge diffraction paths); [`Interaction::Diffraction`] is
+//! reserved for it.
+//!
+//! # Conventions (Sionna RT's)
+//! * Angles in radians: zenith θ from +z, azimuth φ from +x toward +y. AoD/ZoD are the angles of
+//!   the departure direction at the transmitter; AoA/ZoA those of the direction from the receiver
+//!   toward where the wave comes from (the last interaction point, or the transmitter).
+//! * Delay `τ = L / c` with `L` the unfolded path length (receiver to last image).
+//! * Polarisation: the field is carried as a 3-vector through every bounce (s/p decomposition per
+//!   bounce, Fresnel `R⊥`/`R∥` of [`crate::propagation::fresnel_reflection`], `p = s × k` for both
+//!   the incident and the reflected wave, `s ∝ k_in × n`). [`Path::jones`] maps the transmitted
+//!   field components on `(θ̂, φ̂)` of the departure direction to the received components on
+//!   `(θ̂, φ̂)` of the *propagation* direction at the receiver, so line of sight is the identity and
+//!   a single ground bounce gives `diag(R∥, R⊥)` (V = θ̂ ≈ vertical, H = φ̂ horizontal).
+//! * [`Path::a`] is the co-polarised entry chosen by [`TracerConfig::polarization`] (vertical by
+//!   default: `a = J[0][0]`). Both include the free-space factor `λ / (4π L)` (isotropic antennas)
+//!   and the carrier phase `e^{−j2π fc τ}`, as Sionna's path coefficients do; the channel at a
+//!   baseband offset `f` is then `Σ a·e^{−j2π f τ}` ([`crate::channel`]). Material parameters and
+//!   `λ` are taken at the carrier (narrowband).
+
+use std::collections::{HashMap, HashSet, VecDeque};
+
+use glam::{DVec3, Vec3};
+use num_complex::Complex64;
+use rayon::prelude::*;
+
+use crate::propagation::{free_space_amplitude, fresnel_reflection};
+use crate::scene::{Scene, SURFACE_EPS_M};
+use crate::C_M_PER_S;
+
+/// Largest supported reflection order.
+pub const MAX_ORDER: usize = 8;
+
+/// Which antenna polarisation [`Path::a`] uses (same at both ends).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Polarization {
+    /// Field along θ̂ (vertical for horizontal paths): `a = J[0][0]`.
+    Vertical,
+    /// Field along φ̂ (horizontal): `a = J[1][1]`.
+    Horizontal,
+}
+
+/// How candidate facet sequences are found for a transmitter.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum CandidateMode {
+    /// Shoot-and-bounce from the transmitter with this many ray directions.
+    Sbr {
+        /// Number of launched rays (Fibonacci sphere).
+        rays: usize,
+    },
+    /// Every facet sequence without immediate repeats (`F·(F−1)^(k−1)` of order `k`): complete but
+    /// only for scenes with few facets.
+    Exhaustive,
+}
+
+/// Tracer settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TracerConfig {
+    /// Carrier frequency, Hz.
+    pub frequency_hz: f64,
+    /// Highest number of reflections per path (0 = line of sight only), at most [`MAX_ORDER`].
+    pub max_order: usize,
+    /// Include the line-of-sight path when unobstructed.
+    pub los: bool,
+    /// Polarisation of [`Path::a`].
+    pub polarization: Polarization,
+    /// How candidate facet sequences are found.
+    pub candidates: CandidateMode,
+    /// Facet clustering: largest angle (rad) between a triangle's normal and its facet's normal.
+    pub facet_angle_tol_rad: f64,
+    /// Facet clustering: largest distance (m) of a triangle vertex from its facet's plane.
+    pub facet_dist_tol_m: f64,
+}
+
+impl Default for TracerConfig {
+    /// 10 GHz, order 3, line of sight on, vertical polarisation, 200 000 SBR rays, facets within
+    /// 8° and 5 cm.
+    fn default() -> Self {
+        TracerConfig {
+            frequency_hz: 10e9,
+            max_order: 3,
+            los: true,
+            polarization: Polarization::Vertical,
+            candidates: CandidateMode::Sbr { rays: 200_000 },
+            facet_angle_tol_rad: 8f64.to_radians(),
+            facet_dist_tol_m: 0.05,
+        }
+    }
+}
+
+/// Why paths could not be computed.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum PathError {
+    /// A position was NaN or infinite.
+    #[error("{what}: position ({}, {}, {}) is not finite", value.x, value.y, value.z)]
+    NonFinitePosition {
+        /// `"tx"` or `"rx"`.
+        what: &'static str,
+        /// The position.
+        value: DVec3,
+    },
+    /// A configuration value is out of range.
+    #[error("{what}: {value} is out of range ({expected})")]
+    OutOfRange {
+        /// Field name.
+        what: &'static str,
+        /// The value.
+        value: f64,
+        /// What was expected.
+        expected: &'static str,
+    },
+}
+
+/// One interaction along a path.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Interaction {
+    /// Direct path (the only entry of a line-of-sight path).
+    Los,
+    /// Specular reflection.
+    Reflection {
+        /// Index into [`Scene::objects`].
+        object: u32,
+        /// Index into [`Facets::facets`].
+        facet: u32,
+        /// Reflection point, metres.
+        point: DVec3,
+    },
+    /// Edge diffraction (not produced yet: reserved).
+    Diffraction {
+        /// Index into [`Scene::objects`].
+        object: u32,
+        /// Diffraction point on the edge, metres.
+        point: DVec3,
+    },
+}
+
+impl Interaction {
+    /// `"los"`, `"reflection"` or `"diffraction"`.
+    pub fn kind(&self) -> &'static str {
+        match self {
+            Interaction::Los => "los",
+            Interaction::Reflection { .. } => "reflection",
+            Interaction::Diffraction { .. } => "diffraction",
+        }
+    }
+}
+
+/// One propagation path.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Path {
+    /// Delay τ, seconds.
+    pub delay_s: f64,
+    /// Unfolded length, metres (`c·τ`).
+    pub length_m: f64,
+    /// Complex amplitude for the configured polarisation (see module docs).
+    pub a: Complex64,
+    /// Full polarimetric amplitude: `jones[rx][tx]`, index 0 = θ̂, 1 = φ̂ (see module docs).
+    pub jones: [[Complex64; 2]; 2],
+    /// Azimuth of departure, rad.
+    pub aod: f64,
+    /// Zenith of departure, rad.
+    pub zod: f64,
+    /// Azimuth of arrival, rad.
+    pub aoa: f64,
+    /// Zenith of arrival, rad.
+    pub zoa: f64,
+    /// `[Los]` for the direct path, otherwise the interactions from transmitter to receiver.
+    pub interactions: Vec<Interaction>,
+}
+
+impl Path {
+    /// Path gain `20·log10 |a|`, dB (negative: a loss).
+    pub fn gain_db(&self) -> f64 {
+        20.0 * self.a.norm().log10()
+    }
+
+    /// Number of reflections and diffractions (0 for line of sight).
+    pub fn order(&self) -> usize {
+        self.interactions
+            .iter()
+            .filter(|i| !matches!(i, Interaction::Los))
+            .count()
+    }
+}
+
+/// A planar facet: coplanar (within tolerance) adjacent triangles of one object.
+#[derive(Clone, Debug)]
+pub struct Facet {
+    /// Owning object.
+    pub object: u32,
+    /// Unit normal of the fitted plane.
+    pub normal: DVec3,
+    /// Plane offset: points `x` of the plane satisfy `normal·x = offset`.
+    pub offset: f64,
+    /// Largest distance of a vertex of the facet from the plane, metres (0 for exact planes).
+    pub thickness: f64,
+    /// Bounding box of the facet's vertices.
+    pub lo: DVec3,
+    /// Bounding box of the facet's vertices.
+    pub hi: DVec3,
+    /// Triangles (indices into [`Scene::triangles`]).
+    pub triangles: Vec<u32>,
+}
+
+/// The facets of a scene.
+#[derive(Clone, Debug)]
+pub struct Facets {
+    /// All facets.
+    pub facets: Vec<Facet>,
+    /// Facet of each triangle of the scene.
+    pub tri_facet: Vec<u32>,
+}
+
+/// Vertex position quantised to 0.1 mm (edge matching between triangles).
+type VertexKey = (i64, i64, i64);
+
+fn tri_vertices(scene: &Scene, t: u32) -> [DVec3; 3] {
+    let tri = &scene.triangles[t as usize];
+    [
+        Vec3::from(tri.v0).as_dvec3(),
+        Vec3::from(tri.v1).as_dvec3(),
+        Vec3::from(tri.v2).as_dvec3(),
+    ]
+}
+
+impl Facets {
+    /// Groups the scene's triangles into planar facets (see module docs).
+    pub fn build(scene: &Scene, angle_tol_rad: f64, dist_tol_m: f64) -> Facets {
+        let n_tri = scene.triangles.len();
+        let verts: Vec<[DVec3; 3]> = (0..n_tri as u32).map(|t| tri_vertices(scene, t)).collect();
+        let mut normals = Vec::with_capacity(n_tri);
+        let mut areas = Vec::with_capacity(n_tri);
+        for v in &verts {
+            let c = (v[1] - v[0]).cross(v[2] - v[0]);
+            let len = c.length();
+            areas.push(0.5 * len);
+            normals.push(if len > 0.0 { c / len } else { DVec3::Z });
+        }
+        // Edge adjacency over quantised vertex positions (0.1 mm grid).
+        let key = |p: DVec3| {
+            let q = (p * 1e4).round();
+            (q.x as i64, q.y as i64, q.z as i64)
+        };
+        let mut edges: HashMap<(VertexKey, VertexKey), Vec<u32>> = HashMap::new();
+        for (t, v) in verts.iter().enumerate() {
+            for e in 0..3 {
+                let (a, b) = (key(v[e]), key(v[(e + 1) % 3]));
+                let k = if a < b { (a, b) } else { (b, a) };
+                edges.entry(k).or_default().push(t as u32);
+            }
+        }
+        let mut adj: Vec<Vec<u32>> = vec![Vec::new(); n_tri];
+        for tris in edges.values() {
+            for (i, &a) in tris.iter().enumerate() {
+                for &b in &tris[i + 1..] {
+                    if scene.tri_object[a as usize] == scene.tri_object[b as usize] {
+                        adj[a as usize].push(b);
+                        adj[b as usize].push(a);
+                    }
+                }
+            }
+        }
+        let cos_tol = angle_tol_rad.cos();
+        let mut order: Vec<u32> = (0..n_tri as u32).collect();
+        order.sort_by(|&a, &b| areas[b as usize].total_cmp(&areas[a as usize]));
+        let mut tri_facet = vec![u32::MAX; n_tri];
+        let mut facets = Vec::new();
+        let mut queue = VecDeque::new();
+        for &seed in &order {
+            if tri_facet[seed as usize] != u32::MAX {
+                continue;
+            }
+            let fid = facets.len() as u32;
+            let mut nsum = normals[seed as usize] * areas[seed as usize];
+            let mut csum =
+                (verts[seed as usize][0] + verts[seed as usize][1] + verts[seed as usize][2]) / 3.0
+                    * areas[seed as usize];
+            let mut asum = areas[seed as usize];
+            let mut members = vec![seed];
+            tri_facet[seed as usize] = fid;
+            queue.clear();
+            queue.push_back(seed);
+            while let Some(t) = queue.pop_front() {
+                for &u in &adj[t as usize] {
+                    if tri_facet[u as usize] != u32::MAX {
+                        continue;
+                    }
+                    let n = nsum.normalize();
+                    let c = csum / asum;
+                    let nu = normals[u as usize];
+                    let dot = nu.dot(n);
+                    if dot.abs() < cos_tol {
+                        continue;
+                    }
+                    if verts[u as usize]
+                        .iter()
+                        .any(|v| (v - c).dot(n).abs() > dist_tol_m)
+                    {
+                        continue;
+                    }
+                    let a = areas[u as usize];
+                    nsum += nu * dot.signum() * a;
+                    csum += (verts[u as usize][0] + verts[u as usize][1] + verts[u as usize][2])
+                        / 3.0
+                        * a;
+                    asum += a;
+                    tri_facet[u as usize] = fid;
+                    members.push(u);
+                    queue.push_back(u);
+                }
+            }
+            let normal = nsum.normalize();
+            let offset = normal.dot(csum / asum);
+            let mut lo = DVec3::splat(f64::INFINITY);
+            let mut hi = DVec3::splat(f64::NEG_INFINITY);
+            let mut thickness: f64 = 0.0;
+            for &m in &members {
+                for v in verts[m as usize] {
+                    lo = lo.min(v);
+                    hi = hi.max(v);
+                    thickness = thickness.max((normal.dot(v) - offset).abs());
+                }
+            }
+            facets.push(Facet {
+                object: scene.tri_object[seed as usize],
+                normal,
+                offset,
+                thickness,
+                lo,
+                hi,
+                triangles: members,
+            });
+        }
+        Facets { facets, tri_facet }
+    }
+}
+
+/// One node of the candidate trie: a facet sequence (this node and its ancestors) with the
+/// transmitter's image behind its last facet.
+#[derive(Clone, Copy, Debug)]
+struct Node {
+    facet: u32,
+    parent: u32,
+    depth: u8,
+    image: DVec3,
+}
+
+const ROOT: u32 = u32::MAX;
+
+/// Candidate facet sequences for one transmitter, reusable for every receiver.
+#[derive(Clone, Debug)]
+pub struct TxCandidates {
+    /// Transmitter position.
+    pub tx: DVec3,
+    nodes: Vec<Node>,
+}
+
+impl TxCandidates {
+    /// Number of candidate facet sequences (all orders).
+    pub fn len(&self) -> usize {
+        self.nodes.len()
+    }
+
+    /// True if there is no candidate reflection path.
+    pub fn is_empty(&self) -> bool {
+        self.nodes.is_empty()
+    }
+}
+
+/// Ray tracer of propagation paths over one scene.
+pub struct Tracer<'a> {
+    scene: &'a Scene,
+    facets: Facets,
+    config: TracerConfig,
+    eta: Vec<Complex64>,
+    wavelength_m: f64,
+}
+
+fn check_position(what: &'static str, p: DVec3) -> Result<(), PathError> {
+    if p.is_finite() {
+        Ok(())
+    } else {
+        Err(PathError::NonFinitePosition { what, value: p })
+    }
+}
+
+/// Unit vectors `(θ̂, φ̂)` of direction `d` (unit) and its angles `(θ, φ)`.
+fn spherical_basis(d: DVec3) -> (DVec3, DVec3, f64, f64) {
+    let theta = d.z.clamp(-1.0, 1.0).acos();
+    let phi = d.y.atan2(d.x);
+    let (st, ct) = theta.sin_cos();
+    let (sp, cp) = phi.sin_cos();
+    (
+        DVec3::new(ct * cp, ct * sp, -st),
+        DVec3::new(-sp, cp, 0.0),
+        theta,
+        phi,
+    )
+}
+
+/// Complex 3-vector (field).
+#[derive(Clone, Copy, Debug)]
+struct CVec3 {
+    re: DVec3,
+    im: DVec3,
+}
+
+impl CVec3 {
+    fn real(v: DVec3) -> Self {
+        CVec3 {
+            re: v,
+            im: DVec3::ZERO,
+        }
+    }
+    fn dot(&self, v: DVec3) -> Complex64 {
+        Complex64::new(self.re.dot(v), self.im.dot(v))
+    }
+    fn scaled(c: Complex64, v: DVec3) -> Self {
+        CVec3 {
+            re: v * c.re,
+            im: v * c.im,
+        }
+    }
+    fn add(self, o: Self) -> Self {
+        CVec3 {
+            re: self.re + o.re,
+            im: self.im + o.im,
+        }
+    }
+}
+
+/// Unit vector perpendicular to unit `k`.
+fn any_perpendicular(k: DVec3) -> DVec3 {
+    let a = if k.x.abs() < 0.9 { DVec3::X } else { DVec3::Y };
+    k.cross(a).normalize()
+}
+
+impl<'a> Tracer<'a> {
+    /// Prepares a tracer: checks the configuration and builds the facets.
+    ///
+    /// # Errors
+    /// [`PathError::OutOfRange`] for a frequency that is not finite and positive, `max_order >
+    /// MAX_ORDER`, zero SBR rays or negative/non-finite facet tolerances.
+    pub fn new(scene: &'a Scene, config: TracerConfig) -> Result<Tracer<'a>, PathError> {
+        let f = config.frequency_hz;
+        if !(f.is_finite() && f > 0.0) {
+            return Err(PathError::OutOfRange {
+                what: "frequency_hz",
+                value: f,
+                expected: "finite and > 0",
+            });
+        }
+        if config.max_order > MAX_ORDER {
+            return Err(PathError::OutOfRange {
+                what: "max_order",
+                value: config.max_order as f64,
+                expected: "at most 8",
+            });
+        }
+        if let CandidateMode::Sbr { rays } = config.candidates {
+            if rays == 0 {
+                return Err(PathError::OutOfRange {
+                    what: "sbr_rays",
+                    value: 0.0,
+                    expected: "at least 1",
+                });
+            }
+        }
+        for (what, v) in [
+            ("facet_angle_tol_rad", config.facet_angle_tol_rad),
+            ("facet_dist_tol_m", config.facet_dist_tol_m),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(PathError::OutOfRange {
+                    what,
+                    value: v,
+                    expected: "finite and >= 0",
+                });
+            }
+        }
+        let facets = Facets::build(scene, config.facet_angle_tol_rad, config.facet_dist_tol_m);
+        let eta = scene
+            .objects
+            .iter()
+            .map(|o| o.material.complex_permittivity(f))
+            .collect();
+        Ok(Tracer {
+            scene,
+            facets,
+            wavelength_m: C_M_PER_S / f,
+            config,
+            eta,
+        })
+    }
+
+    /// The facets the tracer reflects on.
+    pub fn facets(&self) -> &Facets {
+        &self.facets
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &TracerConfig {
+        &self.config
+    }
+
+    /// Candidate facet sequences for transmitter `tx` (see module docs), to be reused for every
+    /// receiver with [`Tracer::trace`]. Runs in parallel (rayon).
+    ///
+    /// # Errors
+    /// [`PathError::NonFinitePosition`] for a NaN or infinite `tx`.
+    pub fn prepare_tx(&self, tx: DVec3) -> Result<TxCandidates, PathError> {
+        check_position("tx", tx)?;
+        let k = self.config.max_order;
+        let mut nodes = Vec::new();
+        if k == 0 {
+            return Ok(TxCandidates { tx, nodes });
+        }
+        let seqs: Vec<([u32; MAX_ORDER], u8)> = match self.config.candidates {
+            CandidateMode::Sbr { rays } => self.sbr_sequences(tx, rays),
+            CandidateMode::Exhaustive => self.all_sequences(),
+        };
+        // Insert into a trie (prefixes first: sequences sorted by length then content).
+        let mut seqs = seqs;
+        seqs.sort_unstable_by(|a, b| a.1.cmp(&b.1).then(a.0.cmp(&b.0)));
+        let mut index: HashMap<(u32, u32), u32> = HashMap::new();
+        for (seq, len) in seqs {
+            let mut parent = ROOT;
+            for (d, &f) in seq[..len as usize].iter().enumerate() {
+                let id = match index.get(&(parent, f)) {
+                    Some(&id) => id,
+                    None => {
+                        let src = if parent == ROOT {
+                            tx
+                        } else {
+                            nodes[parent as usize].image
+                        };
+                        let fc = &self.facets.facets[f as usize];
+                        let image = src - 2.0 * (fc.normal.dot(src) - fc.offset) * fc.normal;
+                        let id = nodes.len() as u32;
+                        nodes.push(Node {
+                            facet: f,
+                            parent,
+                            depth: d as u8 + 1,
+                            image,
+                        });
+                        index.insert((parent, f), id);
+                        id
+                    }
+                };
+                parent = id;
+            }
+        }
+        Ok(TxCandidates { tx, nodes })
+    }
+
+    fn all_sequences(&self) -> Vec<([u32; MAX_ORDER], u8)> {
+        let nf = self.facets.facets.len() as u32;
+        let mut out = Vec::new();
+        let mut frontier: Vec<([u32; MAX_ORDER], u8)> = vec![([0; MAX_ORDER], 0)];
+        for _ in 0..self.config.max_order {
+            let mut next = Vec::new();
+            for (seq, len) in &frontier {
+                for f in 0..nf {
+                    if *len > 0 && seq[*len as usize - 1] == f {
+                        continue;
+                    }
+                    let mut s = *seq;
+                    s[*len as usize] = f;
+                    next.push((s, len + 1));
+                }
+            }
+            out.extend_from_slice(&next);
+            frontier = next;
+        }
+        out
+    }
+
+    fn sbr_sequences(&self, tx: DVec3, rays: usize) -> Vec<([u32; MAX_ORDER], u8)> {
+        let k = self.config.max_order;
+        let golden = std::f64::consts::PI * (3.0 - 5f64.sqrt());
+        let tx32 = tx.as_vec3();
+        let set = (0..rays)
+            .into_par_iter()
+            .fold(
+                HashSet::new,
+                |mut set: HashSet<([u32; MAX_ORDER], u8)>, i| {
+                    let z = 1.0 - 2.0 * (i as f64 + 0.5) / rays as f64;
+                    let r = (1.0 - z * z).max(0.0).sqrt();
+                    let phi = golden * i as f64;
+                    let mut dir = DVec3::new(r * phi.cos(), r * phi.sin(), z);
+                    let mut origin = tx32;
+                    let mut seq = [0u32; MAX_ORDER];
+                    let mut prev = u32::MAX;
+                    for depth in 0..k {
+                        let tf = &self.facets.tri_facet;
+                        let Some(hit) = self.scene.closest_hit_skipping(
+                            origin,
+                            dir.as_vec3(),
+                            0.0,
+                            f32::INFINITY,
+                            |t| tf[t as usize] == prev,
+                        ) else {
+                            break;
+                        };
+                        let f = tf[hit.triangle as usize];
+                        seq[depth] = f;
+                        set.insert((seq, depth as u8 + 1));
+                        let n = self.facets.facets[f as usize].normal;
+                        dir = (dir - 2.0 * dir.dot(n) * n).normalize();
+                        origin = hit.point;
+                        prev = f;
+                    }
+                    set
+                },
+            )
+            .reduce(HashSet::new, |mut a, mut b| {
+                if a.len() < b.len() {
+                    std::mem::swap(&mut a, &mut b);
+                }
+                a.extend(b);
+                a
+            });
+        set.into_iter().collect()
+    }
+
+    /// Paths from `tx` to `rx` (prepares the candidates for `tx` first; use
+    /// [`Tracer::prepare_tx`] + [`Tracer::trace`] for many receivers).
+    ///
+    /// # Errors
+    /// [`PathError::NonFinitePosition`] for a NaN or infinite position.
+    pub fn paths(&self, tx: DVec3, rx: DVec3) -> Result<Vec<Path>, PathError> {
+        let c = self.prepare_tx(tx)?;
+        self.trace(&c, rx)
+    }
+
+    /// Paths from the prepared transmitter to every receiver, in parallel over receivers.
+    ///
+    /// # Errors
+    /// [`PathError::NonFinitePosition`] naming the first receiver that is NaN or infinite.
+    pub fn trace_many(
+        &self,
+        cand: &TxCandidates,
+        rxs: &[DVec3],
+    ) -> Result<Vec<Vec<Path>>, PathError> {
+        for &rx in rxs {
+            check_position("rx", rx)?;
+        }
+        rxs.par_iter().map(|&rx| self.trace(cand, rx)).collect()
+    }
+
+    /// Paths from the prepared transmitter to `rx`, sorted by delay.
+    ///
+    /// # Errors
+    /// [`PathError::NonFinitePosition`] for a NaN or infinite `rx`.
+    pub fn trace(&self, cand: &TxCandidates, rx: DVec3) -> Result<Vec<Path>, PathError> {
+        check_position("rx", rx)?;
+        let tx = cand.tx;
+        let mut paths = Vec::new();
+        if self.config.los && (rx - tx).length() > 0.0 && self.leg_clear(tx, rx, u32::MAX) {
+            paths.push(self.make_path(tx, rx, &[], &[], (rx - tx).length()));
+        }
+        let mut chain = [0u32; MAX_ORDER];
+        let mut points = [DVec3::ZERO; MAX_ORDER];
+        'cand: for node in &cand.nodes {
+            // Collect the chain, deepest first.
+            let depth = node.depth as usize;
+            let mut id = node;
+            for slot in chain[..depth].iter_mut() {
+                *slot = id.facet;
+                if id.parent != ROOT {
+                    id = &cand.nodes[id.parent as usize];
+                }
+            }
+            // chain[0] is the last facet (next to rx). Back-trace the images.
+            let mut q = rx;
+            let mut nd = node;
+            for i in 0..depth {
+                let fc = &self.facets.facets[chain[i] as usize];
+                let img = nd.image;
+                let dq = fc.normal.dot(q) - fc.offset;
+                let di = fc.normal.dot(img) - fc.offset;
+                if dq * di >= 0.0 || dq.abs() < 1e-9 {
+                    continue 'cand;
+                }
+                let s = dq / (dq - di);
+                let p = q + (img - q) * s;
+                let pad = fc.thickness + 1e-6 * (1.0 + p.abs().max_element());
+                if p.cmplt(fc.lo - pad).any() || p.cmpgt(fc.hi + pad).any() {
+                    continue 'cand;
+                }
+                points[i] = p;
+                q = p;
+                if nd.parent != ROOT {
+                    nd = &cand.nodes[nd.parent as usize];
+                }
+            }
+            // The first facet must see the transmitter from the side the image was made on.
+            // (Guaranteed by construction: the image of tx is mirrored through that plane.)
+            // BVH validation, receiver side first.
+            let mut from = rx;
+            let mut from_facet = u32::MAX;
+            for i in 0..depth {
+                if !self.leg_hits_facet(from, from_facet, points[i], chain[i]) {
+                    continue 'cand;
+                }
+                from = points[i];
+                from_facet = chain[i];
+            }
+            if !self.leg_clear(from, tx, from_facet) {
+                continue 'cand;
+            }
+            // Reverse to transmitter order.
+            let mut fwd_f = [0u32; MAX_ORDER];
+            let mut fwd_p = [DVec3::ZERO; MAX_ORDER];
+            for i in 0..depth {
+                fwd_f[i] = chain[depth - 1 - i];
+                fwd_p[i] = points[depth - 1 - i];
+            }
+            // Unfolded length from the last image (exact in f64).
+            let length_m = (rx - node.image).length();
+            paths.push(self.make_path(tx, rx, &fwd_f[..depth], &fwd_p[..depth], length_m));
+        }
+        paths.sort_by(|a, b| a.delay_s.total_cmp(&b.delay_s));
+        dedup(&mut paths);
+        Ok(paths)
+    }
+
+    /// True if nothing blocks the segment `a → b` (ignoring facet `skip` at `a`).
+    fn leg_clear(&self, a: DVec3, b: DVec3, skip: u32) -> bool {
+        let d = b - a;
+        let len = d.length();
+        if len <= 2.0 * SURFACE_EPS_M as f64 {
+            return true;
+        }
+        let dir = (d / len).as_vec3();
+        let tf = &self.facets.tri_facet;
+        let tmin = if skip == u32::MAX { SURFACE_EPS_M } else { 0.0 };
+        self.scene
+            .closest_hit_skipping(
+                a.as_vec3(),
+                dir,
+                tmin,
+                (len - SURFACE_EPS_M as f64) as f32,
+                |t| tf[t as usize] == skip,
+            )
+            .is_none()
+    }
+
+    /// True if the ray from `a` toward `p` (on facet `f`) first hits facet `f`, near `p`.
+    fn leg_hits_facet(&self, a: DVec3, skip: u32, p: DVec3, f: u32) -> bool {
+        let d = p - a;
+        let len = d.length();
+        if len <= SURFACE_EPS_M as f64 {
+            return false;
+        }
+        let dir = d / len;
+        let fc = &self.facets.facets[f as usize];
+        let cos = dir.dot(fc.normal).abs().max(0.05);
+        let tol = (fc.thickness + SURFACE_EPS_M as f64) / cos;
+        let tf = &self.facets.tri_facet;
+        let tmin = if skip == u32::MAX { SURFACE_EPS_M } else { 0.0 };
+        match self.scene.closest_hit_skipping(
+            a.as_vec3(),
+            dir.as_vec3(),
+            tmin,
+            (len + tol) as f32,
+            |t| tf[t as usize] == skip,
+        ) {
+            Some(h) => {
+                if tf[h.triangle as usize] == f {
+                    true
+                } else {
+                    // Another surface only within the tolerance band around p (e.g. a wall
+                    // meeting the facet at p) does not block.
+                    (h.t as f64) > len - tol && self.inside_facet(p, f)
+                }
+            }
+            // Crack between two triangles of the facet (non-watertight ray/triangle test).
+            None => self.inside_facet(p, f),
+        }
+    }
+
+    /// Exact test: the projection of `p` on facet `f`'s plane lies in one of its triangles.
+    fn inside_facet(&self, p: DVec3, f: u32) -> bool {
+        let fc = &self.facets.facets[f as usize];
+        let n = fc.normal;
+        let u = any_perpendicular(n);
+        let v = n.cross(u);
+        let to2 = |x: DVec3| (x.dot(u), x.dot(v));
+        let (px, py) = to2(p);
+        fc.triangles.iter().any(|&t| {
+            let [a, b, c] = tri_vertices(self.scene, t);
+            let (ax, ay) = to2(a);
+            let (bx, by) = to2(b);
+            let (cx, cy) = to2(c);
+            let det = (bx - ax) * (cy - ay) - (cx - ax) * (by - ay);
+            if det == 0.0 {
+                return false;
+            }
+            let l1 = ((px - ax) * (cy - ay) - (cx - ax) * (py - ay)) / det;
+            let l2 = ((bx - ax) * (py - ay) - (px - ax) * (by - ay)) / det;
+            let eps = 1e-9;
+            l1 >= -eps && l2 >= -eps && l1 + l2 <= 1.0 + eps
+        })
+    }
+
+    /// Builds a path of unfolded length `length_m` through the reflection points: angles, the
+    /// polarimetric Fresnel product, free-space spreading and carrier phase.
+    fn make_path(
+        &self,
+        tx: DVec3,
+        rx: DVec3,
+        facets: &[u32],
+        points: &[DVec3],
+        length_m: f64,
+    ) -> Path {
+        let mut verts = Vec::with_capacity(facets.len() + 2);
+        verts.push(tx);
+        verts.extend_from_slice(points);
+        verts.push(rx);
+        let k0 = (verts[1] - verts[0]).normalize();
+        let (th_t, ph_t, zod, aod) = spherical_basis(k0);
+        let mut e = [CVec3::real(th_t), CVec3::real(ph_t)];
+        let mut k_in = k0;
+        let mut interactions = Vec::with_capacity(facets.len().max(1));
+        for (i, &f) in facets.iter().enumerate() {
+            let fc = &self.facets.facets[f as usize];
+            let n = fc.normal;
+            let k_out = (verts[i + 2] - verts[i + 1]).normalize();
+            let cos_i = k_in.dot(n).abs();
+            let r = fresnel_reflection(self.eta[fc.object as usize], cos_i);
+            let sx = k_in.cross(n);
+            let s = if sx.length() > 1e-12 {
+                sx.normalize()
+            } else {
+                any_perpendicular(k_in)
+            };
+            let p_in = s.cross(k_in);
+            let p_out = s.cross(k_out);
+            for field in e.iter_mut() {
+                *field = CVec3::scaled(r.te * field.dot(s), s)
+                    .add(CVec3::scaled(r.tm * field.dot(p_in), p_out));
+            }
+            interactions.push(Interaction::Reflection {
+                object: fc.object,
+                facet: f,
+                point: points[i],
+            });
+            k_in = k_out;
+        }
+        if interactions.is_empty() {
+            interactions.push(Interaction::Los);
+        }
+        let (th_r, ph_r, _, _) = spherical_basis(k_in);
+        let (_, _, zoa, aoa) = spherical_basis(-k_in);
+        let jones = [
+            [e[0].dot(th_r), e[1].dot(th_r)],
+            [e[0].dot(ph_r), e[1].dot(ph_r)],
+        ];
+        let mut path = Path {
+            delay_s: length_m / C_M_PER_S,
+            length_m,
+            a: Complex64::new(0.0, 0.0),
+            jones,
+            aod,
+            zod,
+            aoa,
+            zoa,
+            interactions,
+        };
+        self.apply_spreading(&mut path);
+        path
+    }
+
+    /// Multiplies the Jones matrix by `λ/(4πL)·e^{−j2π L/λ}` and sets `a`.
+    fn apply_spreading(&self, path: &mut Path) {
+        let amp = free_space_amplitude(path.length_m, self.wavelength_m);
+        let phase = -2.0 * std::f64::consts::PI * (path.length_m / self.wavelength_m).fract();
+        let g = Complex64::from_polar(amp, phase);
+        for row in path.jones.iter_mut() {
+            for x in row.iter_mut() {
+                *x *= g;
+            }
+        }
+        path.a = match self.config.polarization {
+            Polarization::Vertical => path.jones[0][0],
+            Polarization::Horizontal => path.jones[1][1],
+        };
+    }
+}
+
+/// Drops paths equal to an earlier one (same delay within 1e-12 relative, same interaction kinds
+/// and points within 1 µm): e.g. one specular point found through two coplanar facets.
+fn dedup(paths: &mut Vec<Path>) {
+    let mut keep: Vec<Path> = Vec::with_capacity(paths.len());
+    'outer: for p in paths.drain(..) {
+        for q in keep.iter().rev() {
+            if p.delay_s - q.delay_s > 1e-12 * p.delay_s + 1e-18 {
+                break;
+            }
+            if p.interactions.len() == q.interactions.len()
+                && p.interactions
+                    .iter()
+                    .zip(&q.interactions)
+                    .all(|(x, y)| same_interaction(x, y))
+            {
+                continue 'outer;
+            }
+        }
+        keep.push(p);
+    }
+    *paths = keep;
+}
+
+fn same_interaction(x: &Interaction, y: &Interaction) -> bool {
+    match (x, y) {
+        (Interaction::Los, Interaction::Los) => true,
+        (Interaction::Reflection { point: a, .. }, Interaction::Reflection { point: b, .. })
+        | (Interaction::Diffraction { point: a, .. }, Interaction::Diffraction { point: b, .. }) => {
+            (*a - *b).length() < 1e-6
+        }
+        _ => false,
+    }
+}
