@@ -6,6 +6,8 @@
 
 use clap::{Parser, Subcommand};
 
+mod mesh_cmd;
+
 /// Hybrid aperture sensing simulator.
 #[derive(Parser)]
 #[command(version, about)]
@@ -22,6 +24,8 @@ enum Command {
         #[arg(long, default_value_t = 10.0)]
         freq_ghz: f64,
     },
+    /// Mesh a point cloud (PLY) by screened Poisson reconstruction; write OBJ (and PLY).
+    Mesh(mesh_cmd::MeshArgs),
 }
 
 fn main() {
@@ -35,6 +39,7 @@ fn main() {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Materials { freq_ghz } => materials(freq_ghz),
+        Command::Mesh(a) => mesh_cmd::run(a),
     }
 }
 

@@ -33,7 +33,7 @@ fn params(depth: u32) -> ReconstructParams {
             levels: 3,
             ..PoissonParams::default()
         },
-        trim_quantile: None,
+        trim: None,
     }
 }
 

@@ -19,7 +19,7 @@ use crate::knn::GeometryError;
 use crate::metrics;
 
 pub use normals::{estimate_normals, Orientation};
-pub use poisson::{screened_poisson, trim_by_density, PoissonOutput, PoissonParams};
+pub use poisson::{screened_poisson, trim, trim_by_density, PoissonOutput, PoissonParams, Trim};
 
 /// An indexed triangle mesh.
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -178,9 +178,8 @@ pub struct ReconstructParams {
     pub normal_k: usize,
     /// Poisson settings.
     pub poisson: PoissonParams,
-    /// Density-trim quantile in [0, 1): vertices whose support density is below this quantile
-    /// are removed with their faces; `None` keeps the closed surface.
-    pub trim_quantile: Option<f32>,
+    /// Density trim ([`Trim`]); `None` keeps the closed surface.
+    pub trim: Option<Trim>,
 }
 
 impl Default for ReconstructParams {
@@ -188,7 +187,7 @@ impl Default for ReconstructParams {
         ReconstructParams {
             normal_k: 16,
             poisson: PoissonParams::default(),
-            trim_quantile: None,
+            trim: None,
         }
     }
 }
@@ -209,7 +208,7 @@ pub struct Reconstruction {
 /// Normals → screened Poisson → optional density trim, on an unoriented cloud.
 ///
 /// # Errors
-/// As [`estimate_normals`], [`screened_poisson`] and [`trim_by_density`].
+/// As [`estimate_normals`], [`screened_poisson`] and [`trim()`].
 pub fn reconstruct(
     points: &[Vec3],
     orientation: Orientation<'_>,
@@ -219,8 +218,8 @@ pub fn reconstruct(
     let normals = estimate_normals(points, params.normal_k, orientation)?;
     let normals_s = t0.elapsed().as_secs_f64();
     let poisson = screened_poisson(points, &normals, &params.poisson)?;
-    let mesh = match params.trim_quantile {
-        Some(q) => trim_by_density(&poisson.mesh, &poisson.vertex_density, q)?,
+    let mesh = match params.trim {
+        Some(rule) => trim(&poisson.mesh, &poisson.vertex_density, rule)?,
         None => poisson.mesh.clone(),
     };
     Ok(Reconstruction {

@@ -22,9 +22,11 @@
 //! iso-value is the mean of χ at the samples (K&H); the surface is extracted on every cell of the
 //! finest grid, closed by a ring of outside nodes, so the untrimmed mesh is watertight.
 //!
-//! Trimming ([`trim_by_density`]) follows Open3D's habit: each vertex carries a support density
-//! (input samples within `density_radius_cells` finest cells of it); vertices below the Q
-//! quantile are removed, with every face that used one.
+//! Trimming ([`trim_by_density`]) follows Open3D's habit: each vertex carries a support density,
+//! here the k-nearest-neighbour estimate k/(π·r_k²) in samples per m² (r_k the distance from the
+//! vertex to its k-th nearest input sample: continuous and positive, and small where the surface
+//! was extrapolated far from any sample); vertices below the Q quantile are removed, with every
+//! face that used one.
 
 use std::time::Instant;
 
@@ -54,8 +56,8 @@ pub struct PoissonParams {
     pub padding: f32,
     /// Neighbours used for each sample's area share.
     pub area_k: usize,
-    /// Radius, in finest cells, within which samples count toward a vertex's density.
-    pub density_radius_cells: f32,
+    /// Neighbours k of the vertex support density k/(π·r_k²).
+    pub density_k: usize,
 }
 
 impl Default for PoissonParams {
@@ -68,7 +70,7 @@ impl Default for PoissonParams {
             max_cg_iterations: 400,
             padding: 0.1,
             area_k: 8,
-            density_radius_cells: 2.0,
+            density_k: 8,
         }
     }
 }
@@ -91,7 +93,7 @@ pub struct LevelStats {
 pub struct PoissonOutput {
     /// The closed (untrimmed) iso-surface.
     pub mesh: TriMesh,
-    /// Support density of each vertex (samples within the density radius).
+    /// Support density of each vertex, samples per m² (k/(π·r_k²), see the module docs).
     pub vertex_density: Vec<f32>,
     /// Iso-value: mean of χ at the samples.
     pub iso_value: f32,
@@ -140,12 +142,8 @@ fn check_params(p: &PoissonParams) -> Result<(), GeometryError> {
     if p.area_k < 2 {
         return Err(bad("area_k", p.area_k as f64, "at least 2"));
     }
-    if !(p.density_radius_cells.is_finite() && p.density_radius_cells > 0.0) {
-        return Err(bad(
-            "density_radius_cells",
-            p.density_radius_cells as f64,
-            "finite and > 0",
-        ));
+    if p.density_k == 0 {
+        return Err(bad("density_k", 0.0, "at least 1"));
     }
     Ok(())
 }
@@ -606,11 +604,14 @@ pub fn screened_poisson(
         values: &chi,
     };
     let mesh = marching_tetrahedra(&field, iso, outside);
-    let radius = params.density_radius_cells * h;
+    let dk = params.density_k;
     let vertex_density: Vec<f32> = mesh
         .vertices
         .par_iter()
-        .map(|&v| index.within(v, radius).len() as f32)
+        .map(|&v| {
+            let r2 = index.knn(v, dk).last().map(|x| x.1).unwrap_or(0.0);
+            dk.min(points.len()) as f32 / (std::f32::consts::PI * r2.max(min_area))
+        })
         .collect();
     let extract_s = t_ex.elapsed().as_secs_f64();
     Ok(PoissonOutput {
@@ -625,6 +626,17 @@ pub fn screened_poisson(
     })
 }
 
+/// How to choose the density below which [`trim`] removes vertices.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub enum Trim {
+    /// Open3D's habit: the Q quantile of the vertex densities, Q in [0, 1).
+    Quantile(f32),
+    /// A fraction (in (0, 1]) of the median vertex density: robust when the extrapolated part
+    /// is a large share of the surface (a building's open bottom), where any fixed quantile is
+    /// either too small to remove it or removes real surface.
+    MedianFraction(f32),
+}
+
 /// Removes vertices whose density is below the `quantile` (in [0, 1)) of all vertex densities,
 /// and every face that used one; unused vertices are dropped.
 ///
@@ -635,8 +647,24 @@ pub fn trim_by_density(
     density: &[f32],
     quantile: f32,
 ) -> Result<TriMesh, GeometryError> {
-    if !(0.0..1.0).contains(&quantile) {
-        return Err(bad("trim quantile", quantile as f64, "in [0, 1)"));
+    trim(mesh, density, Trim::Quantile(quantile))
+}
+
+/// Removes vertices whose density is below the threshold `rule` gives, and every face that used
+/// one; unused vertices are dropped (kept vertices keep their order).
+///
+/// # Errors
+/// A quantile outside [0, 1) or a fraction outside (0, 1]; `density` of another length than the
+/// vertices.
+pub fn trim(mesh: &TriMesh, density: &[f32], rule: Trim) -> Result<TriMesh, GeometryError> {
+    match rule {
+        Trim::Quantile(q) if !(0.0..1.0).contains(&q) => {
+            return Err(bad("trim quantile", q as f64, "in [0, 1)"));
+        }
+        Trim::MedianFraction(f) if !(f > 0.0 && f <= 1.0) => {
+            return Err(bad("trim median fraction", f as f64, "in (0, 1]"));
+        }
+        _ => {}
     }
     if density.len() != mesh.vertices.len() {
         return Err(bad(
@@ -650,7 +678,11 @@ pub fn trim_by_density(
     }
     let mut sorted = density.to_vec();
     sorted.sort_by(f32::total_cmp);
-    let thr = sorted[((quantile as f64) * (sorted.len() - 1) as f64).floor() as usize];
+    let at = |q: f64| sorted[(q * (sorted.len() - 1) as f64).floor() as usize];
+    let thr = match rule {
+        Trim::Quantile(q) => at(q as f64),
+        Trim::MedianFraction(f) => f * at(0.5),
+    };
     let mut out = TriMesh {
         vertices: mesh.vertices.clone(),
         faces: mesh
@@ -728,5 +760,9 @@ mod tests {
         assert_eq!(t.faces, vec![[0, 2, 1]]);
         assert_eq!(t.vertices, vec![Vec3::ZERO, Vec3::X, Vec3::Y]);
         assert_eq!(t.topology().boundary_edges, 3);
+        // Median of (1, 5, 6, 7) is element ⌊0.5·3⌋ = 5; 0.5 × 5 = 2.5 removes vertex 3 too.
+        assert_eq!(trim(&m, &d, Trim::MedianFraction(0.5)).unwrap(), t);
+        assert!(trim(&m, &d, Trim::MedianFraction(0.0)).is_err());
+        assert!(trim(&m, &d, Trim::MedianFraction(1.5)).is_err());
     }
 }

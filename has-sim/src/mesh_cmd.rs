@@ -1,0 +1,323 @@
+//! `has-sim mesh`: point cloud (PLY) → oriented normals → screened Poisson → OBJ (+ PLY) mesh,
+//! with an optional comparison against a ground truth and, when built with the `poisson-crate`
+//! feature, against the crates.io `poisson_reconstruction` crate on the same oriented points.
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{bail, Context};
+use glam::Vec3;
+use has_host::io::{ply, PlyData, PlyFormat};
+use has_host::mesh::{
+    estimate_normals, screened_poisson, trim, Orientation, PoissonParams, TriMesh, Trim,
+};
+use has_host::metrics::{CloudComparison, REPORT_THRESHOLDS_M};
+use has_host::{Material, Object};
+
+/// Options of the `mesh` subcommand.
+#[derive(clap::Args, Debug)]
+pub struct MeshArgs {
+    /// Input point cloud (PLY). Normals are taken from `nx`, `ny`, `nz` properties when present
+    /// (and `--estimate-normals` is not given); otherwise estimated by PCA and oriented by
+    /// minimum-spanning-tree propagation.
+    pub input: PathBuf,
+    /// Output mesh (OBJ).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Also write the mesh as PLY, with each vertex's support density as a property.
+    #[arg(long)]
+    pub ply: Option<PathBuf>,
+    /// Octree depth: finest cell = padded largest extent / 2^depth.
+    #[arg(long, default_value_t = 8)]
+    pub depth: u32,
+    /// Density-trim quantile in [0, 1) (Open3D style): drop vertices whose support density is
+    /// below this quantile, with their faces. Omitted (and no `--trim-median`) = keep the closed
+    /// surface.
+    #[arg(long, conflicts_with = "trim_median")]
+    pub trim: Option<f32>,
+    /// Density trim relative to the median vertex density, fraction in (0, 1] (e.g. 0.25): also
+    /// removes a large extrapolated part such as a building's open bottom.
+    #[arg(long)]
+    pub trim_median: Option<f32>,
+    /// Screening weight α (Kazhdan & Hoppe 2013; 0 = unscreened).
+    #[arg(long, default_value_t = 4.0)]
+    pub screening: f32,
+    /// Neighbours for PCA normals.
+    #[arg(long, default_value_t = 16)]
+    pub k: usize,
+    /// Ignore normals stored in the input and estimate them.
+    #[arg(long)]
+    pub estimate_normals: bool,
+    /// Ground truth (PLY mesh, sampled at `--truth-density`, or PLY point cloud used as is):
+    /// prints √CD and F-scores of the input cloud and of the mesh against it.
+    #[arg(long)]
+    pub truth: Option<PathBuf>,
+    /// Sampling density of mesh surfaces for the metrics, points per m².
+    #[arg(long, default_value_t = 25.0)]
+    pub truth_density: f64,
+    /// Also mesh the same oriented points with the crates.io `poisson_reconstruction` crate
+    /// (needs the `poisson-crate` feature) and report its quality and time.
+    #[arg(long)]
+    pub compare_crate: bool,
+    /// Write a JSON summary here.
+    #[arg(long)]
+    pub report: Option<PathBuf>,
+}
+
+fn metrics_json(s1: &[Vec3], truth: &[Vec3]) -> anyhow::Result<serde_json::Value> {
+    let c = CloudComparison::new(s1, truth)?;
+    let mut f = serde_json::Map::new();
+    for d in REPORT_THRESHOLDS_M {
+        let s = c.fscore(d)?;
+        f.insert(format!("fscore_{d}m"), serde_json::json!(s));
+    }
+    Ok(serde_json::json!({
+        "points": s1.len(),
+        "sqrt_chamfer_m": c.sqrt_chamfer_m(),
+        "fscores": f,
+    }))
+}
+
+fn summary_line(name: &str, m: &serde_json::Value) -> String {
+    let f = |d: &str| {
+        m["fscores"][format!("fscore_{d}m")]["fscore_pct"]
+            .as_f64()
+            .unwrap_or(f64::NAN)
+    };
+    format!(
+        "{name:<28} √CD {:>7.3} m   F(0.5 m) {:>6.2}   F(1.0 m) {:>6.2}   F(1.5 m) {:>6.2}",
+        m["sqrt_chamfer_m"].as_f64().unwrap_or(f64::NAN),
+        f("0.5"),
+        f("1"),
+        f("1.5")
+    )
+}
+
+/// Writes `mesh` as OBJ (one object, concrete) and optionally as PLY with vertex densities.
+pub fn write_mesh(
+    mesh: &TriMesh,
+    obj: &Path,
+    ply_path: Option<&Path>,
+    density: Option<&[f32]>,
+) -> anyhow::Result<()> {
+    let tris = has_host::metrics::indexed_triangles(&mesh.vertices, &mesh.faces)?;
+    let object = Object {
+        name: "mesh".into(),
+        material: Material::Concrete,
+        triangles: tris,
+    };
+    has_host::io::obj::write_obj(obj, &[object])?;
+    if let Some(p) = ply_path {
+        let mut data = PlyData {
+            vertices: mesh.vertices.clone(),
+            properties: Vec::new(),
+            faces: mesh.faces.clone(),
+        };
+        if let Some(d) = density {
+            data.properties.push(("density".into(), d.to_vec()));
+        }
+        ply::write_ply(p, &data, PlyFormat::BinaryLittleEndian)?;
+    }
+    Ok(())
+}
+
+/// Runs the subcommand.
+pub fn run(a: MeshArgs) -> anyhow::Result<()> {
+    if let Some(q) = a.trim {
+        if !(0.0..1.0).contains(&q) {
+            bail!("--trim: {q} is not a quantile in [0, 1)");
+        }
+    }
+    if let Some(f) = a.trim_median {
+        if !(f > 0.0 && f <= 1.0) {
+            bail!("--trim-median: {f} is not a fraction in (0, 1]");
+        }
+    }
+    let rule = match (a.trim, a.trim_median) {
+        (Some(q), _) => Some(Trim::Quantile(q)),
+        (None, Some(f)) => Some(Trim::MedianFraction(f)),
+        (None, None) => None,
+    };
+    let input = ply::read_ply(&a.input)?;
+    let points = input.vertices.clone();
+    let t0 = Instant::now();
+    let stored = match (
+        input.property("nx"),
+        input.property("ny"),
+        input.property("nz"),
+    ) {
+        (Some(x), Some(y), Some(z)) if !a.estimate_normals => Some(
+            x.iter()
+                .zip(y)
+                .zip(z)
+                .map(|((&x, &y), &z)| Vec3::new(x, y, z))
+                .collect::<Vec<_>>(),
+        ),
+        _ => None,
+    };
+    let normals = match stored {
+        Some(n) => n,
+        None => estimate_normals(&points, a.k, Orientation::Propagate)
+            .with_context(|| format!("{}: normals", a.input.display()))?,
+    };
+    let normals_s = t0.elapsed().as_secs_f64();
+    let params = PoissonParams {
+        depth: a.depth,
+        screening: a.screening,
+        ..PoissonParams::default()
+    };
+    let t1 = Instant::now();
+    let out = screened_poisson(&points, &normals, &params)
+        .with_context(|| format!("{}: Poisson reconstruction", a.input.display()))?;
+    let mesh = match rule {
+        Some(r) => trim(&out.mesh, &out.vertex_density, r)?,
+        None => out.mesh.clone(),
+    };
+    let poisson_s = t1.elapsed().as_secs_f64();
+    let top = mesh.topology();
+    // Densities follow the vertices only for the untrimmed mesh.
+    let density = rule.is_none().then_some(out.vertex_density.as_slice());
+    write_mesh(&mesh, &a.out, a.ply.as_deref(), density)?;
+    println!(
+        "mesh: {} points → {} vertices, {} faces, cell {:.3} m, grid {:?}, watertight {}, manifold {}",
+        points.len(),
+        mesh.vertex_count(),
+        mesh.face_count(),
+        out.cell_m,
+        out.dims,
+        top.watertight,
+        top.manifold
+    );
+    println!(
+        "time: normals {normals_s:.2} s, solve {:.2} s, extract {:.2} s, total Poisson {poisson_s:.2} s",
+        out.solve_s, out.extract_s
+    );
+    let mut report = serde_json::json!({
+        "input": a.input,
+        "points": points.len(),
+        "params": params,
+        "trim": rule,
+        "mesh": {
+            "vertices": mesh.vertex_count(),
+            "faces": mesh.face_count(),
+            "topology": top,
+            "area_m2": mesh.area_m2(),
+            "cell_m": out.cell_m,
+            "grid_dims": out.dims,
+            "iso_value": out.iso_value,
+            "levels": out.levels,
+        },
+        "time_s": {"normals": normals_s, "solve": out.solve_s, "extract": out.extract_s, "poisson_total": poisson_s},
+    });
+    let truth = match &a.truth {
+        Some(p) => {
+            let t = ply::read_ply(p)?;
+            Some(if t.faces.is_empty() {
+                t.vertices
+            } else {
+                has_host::metrics::sample_triangles(&t.triangles(), a.truth_density, 1)?
+            })
+        }
+        None => None,
+    };
+    if let Some(truth) = &truth {
+        let cloud = metrics_json(&points, truth)?;
+        let s1 = mesh.sample(a.truth_density, 2)?;
+        let m = metrics_json(&s1, truth)?;
+        println!("{}", summary_line("input cloud", &cloud));
+        println!("{}", summary_line("mesh (has)", &m));
+        report["truth_points"] = serde_json::json!(truth.len());
+        report["metrics"] = serde_json::json!({"cloud": cloud, "mesh": m, "mesh_sample_density_per_m2": a.truth_density});
+    }
+    if a.compare_crate {
+        let c = compare_crate(
+            &points,
+            &normals,
+            a.depth,
+            truth.as_deref(),
+            a.truth_density,
+        )?;
+        report["poisson_reconstruction_crate"] = c;
+    }
+    if let Some(r) = &a.report {
+        std::fs::write(r, serde_json::to_string_pretty(&report)? + "\n")
+            .with_context(|| format!("{}: writing report", r.display()))?;
+    }
+    Ok(())
+}
+
+#[cfg(not(feature = "poisson-crate"))]
+fn compare_crate(
+    _: &[Vec3],
+    _: &[Vec3],
+    _: u32,
+    _: Option<&[Vec3]>,
+    _: f64,
+) -> anyhow::Result<serde_json::Value> {
+    bail!("--compare-crate: has-sim was built without the `poisson-crate` feature (cargo build --features poisson-crate)")
+}
+
+/// Meshes the same oriented points with `poisson_reconstruction` 0.4 (f64, its own B-spline
+/// multigrid and marching cubes): screening 0 and density-estimation depth depth − 2 are its
+/// README's habits; its `max_depth` is our depth.
+#[cfg(feature = "poisson-crate")]
+fn compare_crate(
+    points: &[Vec3],
+    normals: &[Vec3],
+    depth: u32,
+    truth: Option<&[Vec3]>,
+    density: f64,
+) -> anyhow::Result<serde_json::Value> {
+    use poisson_reconstruction::PoissonReconstruction;
+    let p: Vec<nalgebra::Point3<f64>> = points
+        .iter()
+        .map(|v| nalgebra::Point3::new(v.x as f64, v.y as f64, v.z as f64))
+        .collect();
+    let n: Vec<nalgebra::Vector3<f64>> = normals
+        .iter()
+        .map(|v| {
+            let v = v.normalize();
+            nalgebra::Vector3::new(v.x as f64, v.y as f64, v.z as f64)
+        })
+        .collect();
+    let t = Instant::now();
+    let d = depth as usize;
+    let rec =
+        PoissonReconstruction::from_points_and_normals(&p, &n, 0.0, d.saturating_sub(2), d, 10);
+    let buf = rec.reconstruct_mesh_buffers();
+    let secs = t.elapsed().as_secs_f64();
+    let mesh = TriMesh {
+        vertices: buf
+            .vertices()
+            .iter()
+            .map(|q| Vec3::new(q.x as f32, q.y as f32, q.z as f32))
+            .collect(),
+        faces: buf
+            .indices()
+            .chunks_exact(3)
+            .map(|c| [c[0], c[1], c[2]])
+            .collect(),
+    };
+    let top = mesh.topology();
+    println!(
+        "poisson_reconstruction crate: {} vertices, {} faces, watertight {}, manifold {}, {secs:.2} s",
+        mesh.vertex_count(),
+        mesh.face_count(),
+        top.watertight,
+        top.manifold
+    );
+    let mut out = serde_json::json!({
+        "vertices": mesh.vertex_count(),
+        "faces": mesh.face_count(),
+        "topology": top,
+        "time_s": secs,
+        "params": {"screening": 0.0, "density_estimation_depth": d.saturating_sub(2), "max_depth": d, "max_relaxation_iters": 10},
+    });
+    if let Some(truth) = truth {
+        let s1 = mesh.sample(density, 2)?;
+        let m = metrics_json(&s1, truth)?;
+        println!("{}", summary_line("mesh (poisson_reconstruction)", &m));
+        out["metrics"] = m;
+    }
+    Ok(out)
+}
