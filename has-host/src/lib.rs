@@ -10,6 +10,7 @@
 pub use has_dsp::geometry::{bistatic_range, wavelength_m, C_M_PER_S};
 
 pub mod channel;
+pub mod echo;
 pub mod io;
 pub mod knn;
 pub mod material;
