@@ -284,9 +284,30 @@ pub enum SceneSpecError {
         /// The name.
         name: String,
     },
+    /// A mesh or Mitsuba file given directly as the scene could not be loaded.
+    #[error(transparent)]
+    MeshFile(#[from] MeshIoError),
     /// The scene could not be built (no triangles, non-finite vertex).
     #[error(transparent)]
     Scene(#[from] SceneError),
+}
+
+/// Loads the objects of a scene file of any supported kind: a TOML scenario (its `[scene]`
+/// table, see [`SceneSpec`]), a Mitsuba XML scene, or an OBJ file with `usemtl` materials.
+pub fn load_scene_objects(path: &Path) -> Result<Vec<Object>, SceneSpecError> {
+    let is_toml = path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
+    if is_toml {
+        SceneSpec::load(path)?.build_objects()
+    } else {
+        Ok(io::load_objects(path, None)?)
+    }
+}
+
+/// [`load_scene_objects`] and build the BVH.
+pub fn load_scene(path: &Path) -> Result<Scene, SceneSpecError> {
+    Ok(Scene::new(load_scene_objects(path)?)?)
 }
 
 #[derive(Deserialize)]

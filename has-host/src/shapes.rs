@@ -467,6 +467,32 @@ pub fn ground(
     })
 }
 
+/// A heightfield over `[min.x, max.x] × [min.y, max.y]`: `z = height(x, y)` sampled on a grid of
+/// `cells.0 × cells.1` cells (two triangles each), facing up.
+pub fn heightfield(
+    name: impl Into<String>,
+    material: Material,
+    min: Vec2,
+    max: Vec2,
+    cells: (u32, u32),
+    height: impl Fn(f32, f32) -> f32,
+) -> Result<Object, ShapeError> {
+    let mut g = ground(name, material, min, max, 0.0, cells)?;
+    for t in &mut g.triangles {
+        for v in t.iter_mut() {
+            v.z = height(v.x, v.y);
+        }
+    }
+    let c = Check {
+        shape: "heightfield",
+        name: &g.name,
+    };
+    for v in g.triangles.iter().flatten() {
+        c.finite("height(x, y)", v.z)?;
+    }
+    Ok(g)
+}
+
 /// A vertical cylinder standing on `base_center`, approximated by a `segments`-sided prism
 /// (vertices on the circle), with top and bottom caps if `caps`.
 pub fn cylinder(
@@ -723,6 +749,39 @@ mod tests {
         for t in &g.triangles {
             assert!((t[1] - t[0]).cross(t[2] - t[0]).z > 0.0);
         }
+    }
+
+    #[test]
+    fn heightfield_follows_the_function_and_faces_up() {
+        let h = heightfield(
+            "hf",
+            Material::WetGround,
+            Vec2::new(0.0, 0.0),
+            Vec2::new(10.0, 10.0),
+            (5, 5),
+            |x, y| 0.1 * x + 0.2 * y,
+        )
+        .unwrap();
+        assert_eq!(h.triangles.len(), 50);
+        for t in &h.triangles {
+            assert!((t[1] - t[0]).cross(t[2] - t[0]).z > 0.0);
+            for v in t {
+                assert_eq!(v.z, 0.1 * v.x + 0.2 * v.y);
+            }
+        }
+        let e = heightfield(
+            "hf",
+            Material::WetGround,
+            Vec2::ZERO,
+            Vec2::ONE,
+            (1, 1),
+            |_, _| f32::NAN,
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().contains("heightfield 'hf': height(x, y)"),
+            "{e}"
+        );
     }
 
     #[test]

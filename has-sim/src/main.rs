@@ -6,7 +6,9 @@
 
 use clap::{Parser, Subcommand};
 
+mod bench_raytrace;
 mod mesh_cmd;
+mod scene_cmd;
 
 /// Hybrid aperture sensing simulator.
 #[derive(Parser)]
@@ -26,6 +28,16 @@ enum Command {
     },
     /// Mesh a point cloud (PLY) by screened Poisson reconstruction; write OBJ (and PLY).
     Mesh(mesh_cmd::MeshArgs),
+    /// Inspect a scene file or export it as a mesh (OBJ / PLY) for viewing.
+    Scene {
+        #[command(subcommand)]
+        cmd: scene_cmd::SceneCmd,
+    },
+    /// Benchmarks (`bench raytrace`).
+    Bench {
+        #[command(subcommand)]
+        cmd: bench_raytrace::BenchCmd,
+    },
 }
 
 fn main() {
@@ -40,6 +52,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Materials { freq_ghz } => materials(freq_ghz),
         Command::Mesh(a) => mesh_cmd::run(a),
+        Command::Scene { cmd } => scene_cmd::run(cmd),
+        Command::Bench { cmd } => bench_raytrace::run(cmd),
     }
 }
 

@@ -113,7 +113,10 @@ fn city_block_fixture_builds_and_the_suggested_bs_is_in_the_open() {
 #[test]
 fn documented_example_scene_builds() {
     let doc = std::fs::read_to_string(fixtures().join("../docs/scenario.md")).unwrap();
-    let start = doc.find("```toml\n").expect("docs/scenario.md has a toml example") + 8;
+    let start = doc
+        .find("```toml\n")
+        .expect("docs/scenario.md has a toml example")
+        + 8;
     let len = doc[start..].find("```").unwrap();
     let mut spec = SceneSpec::from_toml_str(&doc[start..start + len]).unwrap();
     spec.set_base_dir(fixtures());
