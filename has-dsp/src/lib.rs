@@ -20,6 +20,7 @@ pub mod geometry;
 pub mod linalg;
 pub mod ofdm;
 pub mod phase;
+pub mod range;
 pub mod template;
 pub mod window;
 
