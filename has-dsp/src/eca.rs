@@ -304,35 +304,50 @@ impl<const M: usize> Eca<M> {
         }
     }
 
-    /// Basis samples `b_m[n]` of the f32 path, in f32 (as applied) and f64 (as correlated).
+    /// Basis samples `b_m[n]` of the f32 path (phasors rounded to f32 once per Doppler bin).
     #[inline]
     fn basis_f32(&self, x: &[C32], n: usize, len: usize, p: &mut [C64; M], b: &mut [C32; M]) {
-        self.phasors(n, len, p);
         let (kk, dd) = (self.delays, self.dopplers);
+        if dd == 1 {
+            for (k, bk) in b.iter_mut().enumerate().take(kk) {
+                *bk = x[n + kk - 1 - k];
+            }
+            return;
+        }
+        self.phasors(n, len, p);
+        let mut pf = [C32::new(0.0, 0.0); M];
+        for (f, z) in pf.iter_mut().zip(p.iter()).take(dd) {
+            *f = C32::new(z.re as f32, z.im as f32);
+        }
         for k in 0..kk {
             let xv = x[n + kk - 1 - k];
-            for (d, pd) in p.iter().enumerate().take(dd) {
-                let pf = C32::new(pd.re as f32, pd.im as f32);
-                b[k * dd + d] = xv * pf;
+            for (bm, pd) in b[k * dd..(k + 1) * dd].iter_mut().zip(&pf) {
+                *bm = xv * pd;
             }
         }
     }
 
     /// Basis samples of the Q15 path: the reference for `d = 0`, reference × rounded Q15 phasor
-    /// (rounded product) otherwise.
+    /// (rounded product) otherwise. The Q15 phasors are rounded once per Doppler bin.
     #[inline]
     fn basis_q15(&self, x: &[CQ15], n: usize, len: usize, p: &mut [C64; M], b: &mut [CQ15; M]) {
-        self.phasors(n, len, p);
         let (kk, dd) = (self.delays, self.dopplers);
+        if dd == 1 {
+            for (k, bk) in b.iter_mut().enumerate().take(kk) {
+                *bk = x[n + kk - 1 - k];
+            }
+            return;
+        }
+        self.phasors(n, len, p);
         let h = (dd - 1) / 2;
+        let mut pq = [CQ15::default(); M];
+        for (q, z) in pq.iter_mut().zip(p.iter()).take(dd) {
+            *q = cq15_from_c32(C32::new(z.re as f32, z.im as f32));
+        }
         for k in 0..kk {
             let xv = x[n + kk - 1 - k];
-            for (d, pd) in p.iter().enumerate().take(dd) {
-                b[k * dd + d] = if d == h {
-                    xv
-                } else {
-                    cq15_mul(xv, cq15_from_c32(C32::new(pd.re as f32, pd.im as f32)))
-                };
+            for (d, (bm, pd)) in b[k * dd..(k + 1) * dd].iter_mut().zip(&pq).enumerate() {
+                *bm = if d == h { xv } else { cq15_mul(xv, *pd) };
             }
         }
     }
