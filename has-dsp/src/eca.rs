@@ -651,6 +651,7 @@ mod tests {
     extern crate std;
     use super::*;
     use crate::fixed::{cq15_to_c32, Q15};
+    use crate::linalg::cholesky_solve;
     use std::boxed::Box;
     use std::vec;
     use std::vec::Vec;
@@ -891,6 +892,99 @@ mod tests {
         );
         assert!(depth >= 100.0);
         assert!((depth_q - predicted_q).abs() < 1.0);
+    }
+
+    #[test]
+    fn q15_doppler_column_rounding_matches_first_order_perturbation_theory() {
+        // The documented sensitivity of the Q15 path with Doppler columns in short batches,
+        // checked quantitatively. Both paths get the same Q15-valued inputs, so they differ only
+        // in (a) the Q15 output rounding, σ² = LSB²/6 per sample, and (b) the d ≠ 0 basis
+        // columns: Q15 rounds x·p_q (p_q the phasor rounded to Q15), f32 keeps x·p; the
+        // difference E has σ_e² = σ²·(1 + E|x|²) per sample (product rounding + x times the
+        // phasor's rounding). To first order the projection changes by −P⊥E·w − X·G⁻¹·Eᴴy
+        // (y the f32 output), two orthogonal terms of expected energy σ_e²·L·Σ_{d≠0}|w_m|² and
+        // σ_e²·‖y‖²·Σ_{d≠0}(G⁻¹)_mm per window. The test computes w and G⁻¹ from the f32 path's
+        // own factors and asserts the measured mean squared difference is within ±30 % of
+        // σ² + (Σ_windows both terms)/N (the spread of the realised quadratic forms is ≈ 10 %).
+        // With ECA-B (batches of 128 of a 512 CPI) the d = ±1 columns turn by only ±¼ cycle per
+        // batch, so G is ill-conditioned and (b) dominates; with ECA over the CPI it vanishes.
+        let n = 512;
+        let k = 4;
+        let x: Vec<C32> = lcg_signal(31, n + k - 1, 0.2);
+        let r = lcg_signal(32, n, 0.1);
+        let s: Vec<C32> = (0..n)
+            .map(|i| C32::new(0.5, 0.2) * x[i + k - 1] + C32::new(-0.2, 0.1) * x[i + k - 3] + r[i])
+            .collect();
+        let xq: Vec<CQ15> = x.iter().map(|&z| cq15_from_c32(z)).collect();
+        let sq: Vec<CQ15> = s.iter().map(|&z| cq15_from_c32(z)).collect();
+        let xf: Vec<C32> = xq.iter().map(|&z| cq15_to_c32(z)).collect();
+        let sf: Vec<C32> = sq.iter().map(|&z| cq15_to_c32(z)).collect();
+        let sigma2 = (Q15::LSB as f64).powi(2) / 6.0;
+        let px = energy(&xf) / xf.len() as f64;
+        let sigma_e2 = sigma2 * (1.0 + px);
+        for (variant, expect_large) in [
+            (EcaVariant::Batched { batch: 128 }, true),
+            (EcaVariant::Block, false),
+        ] {
+            let eca = Eca::<12>::new(k, 3, variant, 0.0).unwrap();
+            let mut ws = Box::new(EcaWorkspace::<12>::new());
+            let mut out_f = vec![C32::new(0.0, 0.0); n];
+            let mut out_q = vec![CQ15::default(); n];
+            eca.cancel_f32(&mut ws, &xf, &sf, &mut out_f).unwrap();
+            eca.cancel_q15(&mut ws, &xq, &sq, &mut out_q).unwrap();
+            let outq: Vec<C32> = out_q.iter().map(|&z| cq15_to_c32(z)).collect();
+            let measured: f64 = outq
+                .iter()
+                .zip(&out_f)
+                .map(|(a, b)| (a - b).norm_sqr() as f64)
+                .sum::<f64>()
+                / n as f64;
+            let m = eca.columns();
+            let doppler_cols: Vec<usize> = (0..m).filter(|c| c % 3 != 1).collect();
+            let mut extra = 0.0;
+            let mut f = EcaFactor::<12>::new();
+            let mut p = [C64::new(0.0, 0.0); 12];
+            let mut b = [C32::new(0.0, 0.0); 12];
+            for wi in 0..eca.windows(n).unwrap() {
+                let win = eca.window(n, wi);
+                eca.factor_window_f32(&xf, n, win.est.clone(), &mut f)
+                    .unwrap();
+                let mut w = [C64::new(0.0, 0.0); 12];
+                for i in win.est.clone() {
+                    eca.basis_f32(&xf, i, n, &mut p, &mut b);
+                    let si = C64::new(sf[i].re as f64, sf[i].im as f64);
+                    for (wm, bm) in w.iter_mut().zip(&b).take(m) {
+                        *wm += C64::new(bm.re as f64, -bm.im as f64) * si;
+                    }
+                }
+                eca.solve(&f, &mut w).unwrap();
+                let y2 = energy(&out_f[win.app.clone()]);
+                let len = win.app.len() as f64;
+                for &c in &doppler_cols {
+                    let mut e = [C64::new(0.0, 0.0); 12];
+                    e[c] = C64::new(1.0, 0.0);
+                    cholesky_solve(&f.l, m, &mut e).unwrap();
+                    extra += sigma_e2 * (len * w[c].norm_sqr() + y2 * e[c].re);
+                }
+            }
+            let predicted = sigma2 + extra / n as f64;
+            std::println!(
+                "{variant:?}: measured {:.2} σ², predicted {:.2} σ² (Doppler-column term {:.2} σ²)",
+                measured / sigma2,
+                predicted / sigma2,
+                extra / n as f64 / sigma2
+            );
+            assert!(
+                (measured / predicted - 1.0).abs() < 0.3,
+                "{variant:?}: measured {measured:e}, predicted {predicted:e}"
+            );
+            if expect_large {
+                assert!(
+                    extra / n as f64 > sigma2,
+                    "the batch case should show the effect"
+                );
+            }
+        }
     }
 
     #[test]
