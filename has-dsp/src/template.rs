@@ -426,15 +426,26 @@ mod tests {
     fn exact_scaled_rotated_template_leaves_residual_below_minus_60_db() {
         let bins = 1024;
         let t = lcg_signal(1, bins, 1.0);
-        let g = C32::from_polar(3.7, 2.1);
-        let mut y: Vec<C32> = t.iter().map(|v| g * v).collect();
+        // The frame is g·t formed in f64 and rounded to f32 once (g = 3.7·e^{j2.1} is not an f32
+        // value), so the f32 path cannot reproduce it bit for bit.
+        let g = C64::from_polar(3.7, 2.1);
+        let mut y: Vec<C32> = t
+            .iter()
+            .map(|v| {
+                let z = g * C64::new(v.re as f64, v.im as f64);
+                C32::new(z.re as f32, z.im as f32)
+            })
+            .collect();
         let e_in = energy(&y);
         let set = Template::new(&t, bins, 0.0).unwrap();
         let gain = set.subtract_in_place(&mut y).unwrap()[0];
         let r = db(energy(&y) / e_in);
-        // f32 arithmetic: each product g·t and the subtraction round at ≈ 2⁻²⁴ relative, so the
-        // residual is ≈ −140 dB; the specification asks for ≤ −60 dB.
+        // f32 arithmetic: the frame's rounding, the gain's rounding to f32 and each product g·t
+        // and subtraction round at ≤ 2⁻²⁴ relative (uniform: rms ≈ −149 dB each), so the
+        // residual is ≈ −145 dB; the specification asks for ≤ −60 dB.
+        std::println!("exact template: residual {r:.1} dB");
         assert!(r <= -60.0, "residual {r:.1} dB");
+        let g = C32::new(g.re as f32, g.im as f32);
         assert!((gain - g).norm() < 1e-5 * g.norm());
     }
 
