@@ -263,7 +263,7 @@ proptest! {
     /// ½ ulp(16 m), plus the grid-local rounding of the positions (½ ulp(150 m)/…: the f64 → f32
     /// rounding of local coordinates ≤ 2.4·10⁻⁷ m per component, the same for both paths since
     /// the reference is given the rounded local positions) → |δr| ≤ 3·10⁻⁶ m, 2π·δr/λ ≤
-    /// 6.3·10⁻⁴ rad; `t = r·(1/λ)`: ½ ulp(500) + t·2⁻²⁴ ≤ 4.5·10⁻⁵ cycles = 2.8·10⁻⁴ rad;
+    /// 6.3·10⁻⁴ rad; `t = r/λ` (correctly rounded): ½ ulp(500) ≤ 1.6·10⁻⁵ cycles = 10⁻⁴ rad;
     /// rotor ≤ 3·10⁻⁶; interpolation and product a few 10⁻⁷; summation N·2⁻²⁴ ≤ 8·10⁻⁶.
     /// ε = 10⁻³ per update relative to |s_p(v)| bounds it all, so SER ≥ 10·log10(Σ|I|²/(ε²·Σ M²)).
     #[test]

@@ -100,7 +100,7 @@ fn run_f32_impl<const LINEAR: bool, const POLY: bool>(
     acc: &mut [Complex<f32>],
     snap: &Snapshot<'_, Complex<f32>>,
 ) {
-    let (r0, inv_dr, inv_lambda) = (bp.cfg.r0_m, bp.inv_dr, bp.inv_lambda);
+    let (r0, inv_dr) = (bp.cfg.r0_m, bp.inv_dr);
     let len = snap.profile_len;
     let zero = Complex::new(0.0f32, 0.0);
     let mut geo = Geo::new();
@@ -130,9 +130,9 @@ fn run_f32_impl<const LINEAR: bool, const POLY: bool>(
                 bin[k] = fl;
                 w[k] = x - fl;
                 let z = if POLY {
-                    rotor_f32(r * inv_lambda)
+                    rotor_f32(bp.cycles(r))
                 } else {
-                    rotor_f32_libm(r * inv_lambda)
+                    rotor_f32_libm(bp.cycles(r))
                 };
                 c_re[k] = z.re;
                 c_im[k] = z.im;
@@ -224,14 +224,21 @@ fn run_q15_impl<const LINEAR: bool>(
     snap: &Snapshot<'_, CQ15>,
     exponents: &[i32],
 ) {
-    let (r0, inv_dr, inv_lambda) = (bp.cfg.r0_m, bp.inv_dr, bp.inv_lambda);
+    let (r0, inv_dr) = (bp.cfg.r0_m, bp.inv_dr);
     let len = snap.profile_len;
     let mut geo = Geo::new();
     let mut rs = [0f32; CHUNK];
-    let (mut bins, mut ws, mut phs) = ([0i32; CHUNK], [0i32; CHUNK], [0u32; CHUNK]);
+    let (mut bins, mut ws, mut ts) = ([0f32; CHUNK], [0f32; CHUNK], [0f32; CHUNK]);
+    // Interpolated samples and rotors (struct of arrays), then the chunk's i64 accumulators.
+    let (mut s_re, mut s_im, mut c_re, mut c_im) =
+        ([0i32; CHUNK], [0i32; CHUNK], [0i32; CHUNK], [0i32; CHUNK]);
+    let (mut a_re, mut a_im) = ([0i64; CHUNK], [0i64; CHUNK]);
     for (ci, acc) in acc.chunks_mut(CHUNK).enumerate() {
         let n = acc.len();
         geo.load(&bp.cfg.grid, first + ci * CHUNK, n, snap.tx);
+        for ((re, im), z) in a_re.iter_mut().zip(a_im.iter_mut()).zip(acc.iter()) {
+            (*re, *im) = (z.re, z.im);
+        }
         for ((a, profile), &e) in snap
             .rx
             .iter()
@@ -246,33 +253,36 @@ fn run_q15_impl<const LINEAR: bool>(
             }
             let half = if shift == 0 { 0 } else { 1i64 << (shift - 1) };
             geo.ranges(n, *a, &mut rs);
-            // Pass A (vectorises): bin, Q15 fraction, phase step.
+            // Pass A (float only, vectorises): bin, fraction, phase in cycles.
             for k in 0..n {
                 let r = rs[k];
                 let x = (r - r0) * inv_dr;
-                if LINEAR {
-                    let fl = floor_f32(x);
-                    bins[k] = fl as i32;
-                    // In [0, 32767]: x − fl < 1 exactly, and `as` truncates.
-                    ws[k] = ((x - fl) * 32768.0) as i32;
-                } else {
-                    bins[k] = floor_f32(x + 0.5) as i32;
-                }
-                phs[k] = phase_index(r * inv_lambda);
+                let fl = floor_f32(if LINEAR { x } else { x + 0.5 });
+                bins[k] = fl;
+                ws[k] = x - fl;
+                ts[k] = bp.cycles(r);
             }
-            // Pass B: gather, interpolate, rotate (exact Q30), accumulate.
-            for (((acc, &i), &w), &ph) in
-                acc.iter_mut().zip(&bins[..n]).zip(&ws[..n]).zip(&phs[..n])
-            {
-                let (s_re, s_im) = interp_q15::<LINEAR>(profile, i, w);
-                let (c_re, c_im) = rotor_q15_index(ph);
-                let (c_re, c_im) = (c_re as i32, c_im as i32);
-                // |s| components ≤ 2¹⁵, rotor components ≤ 32767: each sum < 2³¹.
-                let p_re = s_re * c_re - s_im * c_im;
-                let p_im = s_re * c_im + s_im * c_re;
-                acc.re += (p_re as i64 + half) >> shift;
-                acc.im += (p_im as i64 + half) >> shift;
+            // Pass B1 (scalar: conversions and gathers): interpolated sample and table rotor.
+            for k in 0..n {
+                // In [0, 32767]: x − fl < 1 exactly, and `as` truncates (unused for nearest).
+                let w = (ws[k] * 32768.0) as i32;
+                (s_re[k], s_im[k]) = interp_q15::<LINEAR>(profile, bins[k] as i32, w);
+                let (re, im) = rotor_q15_index(phase_index(ts[k]));
+                (c_re[k], c_im[k]) = (re as i32, im as i32);
             }
+            // Pass B2: exact Q30 product, aligned and accumulated in i64. |s| components
+            // ≤ 2¹⁵, rotor components ≤ 32767: each sum < 2³¹.
+            let (a_re, a_im) = (&mut a_re[..n], &mut a_im[..n]);
+            let (s_re, s_im, c_re, c_im) = (&s_re[..n], &s_im[..n], &c_re[..n], &c_im[..n]);
+            for k in 0..n {
+                let p_re = s_re[k] * c_re[k] - s_im[k] * c_im[k];
+                let p_im = s_re[k] * c_im[k] + s_im[k] * c_re[k];
+                a_re[k] += (p_re as i64 + half) >> shift;
+                a_im[k] += (p_im as i64 + half) >> shift;
+            }
+        }
+        for ((z, &re), &im) in acc.iter_mut().zip(&a_re[..n]).zip(&a_im[..n]) {
+            *z = Complex::new(re, im);
         }
     }
 }

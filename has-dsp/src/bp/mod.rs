@@ -36,10 +36,48 @@
 //! # Batching and tiles
 //! A *snapshot* ([`Snapshot`]) is all the profiles received by an array from one transmitter
 //! position: `r_V` is computed once per voxel and reused across every element. Voxels are processed
-//! in chunks of [`CHUNK`] so that the chunk's coordinates, `r_V` and per-element geometry stay in
-//! L1 while the elements stream through. Accumulator states cover a *tile*: a contiguous range of
-//! linear voxel indices, so a host can split the grid (e.g. `par_chunks_mut`) across threads and
-//! run the same code on each tile.
+//! in chunks of [`CHUNK`]: the chunk's coordinates, `r_V` and accumulators (struct of arrays) stay
+//! in L1 while the elements stream through; per element, pass A (bistatic range, bin, weight,
+//! rotor) vectorises, pass B1 gathers the two samples, pass B2 (interpolate, rotate, accumulate)
+//! vectorises. Stack use is about 15 KiB (`f32`) / 8 KiB (Q15) at `CHUNK = 256`.
+//!
+//! Accumulator states cover a *tile*: a contiguous range of linear voxel indices. A host splits
+//! the grid into disjoint tiles once, keeps one state per tile alive for the whole run, and pushes
+//! every snapshot into every tile (e.g. `states.par_iter_mut()` with rayon); each tile runs the
+//! same code and gives bit-for-bit the image the whole grid would. Constructing a state zeroes its
+//! buffer.
+//!
+//! ```
+//! use glam::Vec3;
+//! use has_dsp::bp::{AccF32, Backprojector, BpConfig, Interp, PhaseEval, Snapshot, VoxelGrid};
+//! use num_complex::Complex;
+//!
+//! let bp = Backprojector::new(BpConfig {
+//!     grid: VoxelGrid { origin: Vec3::new(100.0, 50.0, 0.0), spacing: Vec3::splat(0.25), dims: [16, 16, 8] },
+//!     wavelength_m: 0.03,
+//!     r0_m: 0.0,
+//!     dr_m: 0.375,
+//!     interp: Interp::Linear,
+//!     phase: PhaseEval::Poly,
+//! })?;
+//! let mut image = [Complex::new(0.0f32, 0.0); 16 * 16 * 8];
+//! // Two tiles (a host would use one per thread).
+//! let (t0, t1) = image.split_at_mut(1000);
+//! let mut tiles = [AccF32::tile(&bp, 0, t0)?, AccF32::tile(&bp, 1000, t1)?];
+//! let rx = [Vec3::new(-20.0, 0.0, 10.0), Vec3::new(-20.0, 0.015, 10.0)]; // grid-local
+//! let profiles = [Complex::new(0.0f32, 0.0); 2 * 128];
+//! let snap = Snapshot { tx: Vec3::new(5.0, -30.0, 1.5), rx: &rx, profiles: &profiles, profile_len: 128 };
+//! for tile in &mut tiles {
+//!     bp.push_snapshot(tile, &snap)?;
+//! }
+//! # Ok::<(), has_dsp::DspError>(())
+//! ```
+//!
+//! # Accuracy (measured, see the tests)
+//! The `f32` path's error is dominated by `f32` ranges: at r ≲ 15 m the image SER against the
+//! `f64` reference is ≈ 70–80 dB; at 100–200 m (ulp of r ≈ 8–15 µm against λ = 3 cm) ≈ 66 dB. The
+//! Q15 path adds profile quantization and the table rotor (≤ 14 LSB): ≈ 78 dB SQNR against the
+//! `f32` path on the property-test scenes.
 
 mod kernel;
 mod reference;
@@ -51,7 +89,7 @@ use crate::fixed::CQ15;
 use glam::Vec3;
 use num_complex::Complex;
 
-/// Voxels processed together: their geometry is kept on the stack (about 10 KiB at 256).
+/// Voxels processed together: their geometry and scratch are kept on the stack (see module docs).
 pub const CHUNK: usize = 256;
 
 /// The largest number of pushes (profiles) an [`AccQ15`] accepts. Each push adds less than 2³¹
@@ -165,7 +203,6 @@ pub struct BpConfig {
 pub struct Backprojector {
     cfg: BpConfig,
     voxels: usize,
-    inv_lambda: f32,
     inv_dr: f32,
 }
 
@@ -418,7 +455,7 @@ impl Backprojector {
             what: "config.grid.dims",
             len: usize::MAX,
         })?;
-        // Reciprocals formed in f64 and rounded once: relative error ≤ 2⁻²⁴.
+        // Reciprocal formed in f64 and rounded once: relative error ≤ 2⁻²⁴ (bin positions only).
         let inv_lambda = (1.0 / cfg.wavelength_m as f64) as f32;
         let inv_dr = (1.0 / cfg.dr_m as f64) as f32;
         check_finite("1 / config.wavelength_m", inv_lambda)?;
@@ -426,7 +463,6 @@ impl Backprojector {
         Ok(Self {
             cfg,
             voxels,
-            inv_lambda,
             inv_dr,
         })
     }
@@ -444,6 +480,15 @@ impl Backprojector {
     /// Number of voxels in the grid.
     pub fn voxels(&self) -> usize {
         self.voxels
+    }
+
+    /// Phase in cycles `r/λ` of a bistatic range `r` (metres), correctly rounded. A division, not
+    /// `r·(1/λ)`: the reciprocal's rounding (≤ 2⁻²⁴ relative) would be a phase error proportional
+    /// to `r`, coherent across pushes (2.5 mrad at r = 200 m: −6 dB of SER at building scale),
+    /// and a split reciprocal still costs a second rounding of `t`.
+    #[inline(always)]
+    fn cycles(&self, r: f32) -> f32 {
+        r / self.cfg.wavelength_m
     }
 
     fn check_acc_f32(&self, acc: &AccF32<'_>) -> Result<(), DspError> {
