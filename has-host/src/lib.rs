@@ -7,6 +7,8 @@
 //! Conventions: metres, seconds, hertz; positions `glam::Vec3` in one right-handed frame with z up;
 //! angles in radians inside, degrees only in reports.
 
+pub mod imaging;
+
 pub use has_dsp::geometry::{bistatic_range, wavelength_m, C_M_PER_S};
 
 pub mod channel;

@@ -18,6 +18,13 @@ use has_host::{Material, Object, Scene};
 /// Benchmark subcommands.
 #[derive(Subcommand)]
 pub enum BenchCmd {
+    /// has-dsp kernels: FFT-1024 (f32, Q15), range compression, back-projection (f32, Q15, plain
+    /// scalar loop) with SER against the f64 reference, 1 thread and all threads.
+    Dsp {
+        /// Shorter runs on smaller problems.
+        #[arg(long)]
+        quick: bool,
+    },
     /// Ray-tracing throughput: BVH build, closest hit and visibility, 1 thread and all threads.
     Raytrace(RaytraceArgs),
 }
@@ -272,6 +279,7 @@ pub fn print_table(rows: &[BenchRow]) {
 pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
     match cmd {
         BenchCmd::Raytrace(a) => raytrace(&a),
+        BenchCmd::Dsp { quick } => crate::bench_dsp::run(quick),
     }
 }
 

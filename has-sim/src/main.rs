@@ -6,6 +6,7 @@
 
 use clap::{Parser, Subcommand};
 
+mod bench_dsp;
 mod bench_raytrace;
 mod mesh_cmd;
 mod scene_cmd;
@@ -33,7 +34,7 @@ enum Command {
         #[command(subcommand)]
         cmd: scene_cmd::SceneCmd,
     },
-    /// Benchmarks (`bench raytrace`).
+    /// Benchmarks (`bench dsp`, `bench raytrace`).
     Bench {
         #[command(subcommand)]
         cmd: bench_raytrace::BenchCmd,

@@ -1,0 +1,217 @@
+//! Sensors of hybrid aperture sensing: the base station's real aperture (a vertical uniform planar
+//! array) and a terminal's virtual aperture (a straight track sampled at transmit positions).
+//!
+//! Frame: metres, z up. A base-station panel stands vertically; its boresight (normal) points
+//! horizontally at azimuth `φ` (radians from +x toward +y). Elements sit at the centres of a
+//! `rows × cols` partition of the `width × height` panel: element `(r, c)` is at
+//! `centre + u·(c − (cols−1)/2)·width/cols + z·(r − (rows−1)/2)·height/rows` with the horizontal
+//! tangent `u = (−sin φ, cos φ, 0)`. Element `(r, c)` has index `r·cols + c` (row-major, row 0 at
+//! the bottom).
+
+use glam::Vec3;
+
+/// A vertical uniform planar array (the base station's real aperture).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PlanarArray {
+    /// Panel centre, metres.
+    pub centre: Vec3,
+    /// Boresight azimuth φ, radians from +x toward +y (the panel's normal is horizontal).
+    pub boresight_az_rad: f32,
+    /// Element rows (vertical).
+    pub rows: usize,
+    /// Element columns (horizontal).
+    pub cols: usize,
+    /// Panel width (horizontal extent), metres.
+    pub width_m: f32,
+    /// Panel height (vertical extent), metres.
+    pub height_m: f32,
+}
+
+impl PlanarArray {
+    /// Unit boresight (outward normal).
+    pub fn boresight(&self) -> Vec3 {
+        Vec3::new(
+            self.boresight_az_rad.cos(),
+            self.boresight_az_rad.sin(),
+            0.0,
+        )
+    }
+
+    /// Unit horizontal tangent (direction of increasing column).
+    pub fn tangent(&self) -> Vec3 {
+        Vec3::new(
+            -self.boresight_az_rad.sin(),
+            self.boresight_az_rad.cos(),
+            0.0,
+        )
+    }
+
+    /// Horizontal and vertical element spacing, metres.
+    pub fn spacing_m(&self) -> (f32, f32) {
+        (
+            self.width_m / self.cols as f32,
+            self.height_m / self.rows as f32,
+        )
+    }
+
+    /// Position of element `(row, col)`.
+    pub fn element(&self, row: usize, col: usize) -> Vec3 {
+        let (dx, dz) = self.spacing_m();
+        let cu = (col as f32 - (self.cols as f32 - 1.0) * 0.5) * dx;
+        let cz = (row as f32 - (self.rows as f32 - 1.0) * 0.5) * dz;
+        self.centre + self.tangent() * cu + Vec3::Z * cz
+    }
+
+    /// Every `step`-th element in both directions (step 1: all `rows·cols`), row-major. The
+    /// subsampled array keeps the panel's extent (and so its resolution) but thins the elements.
+    pub fn elements(&self, step: usize) -> Vec<Vec3> {
+        let step = step.max(1);
+        let mut out = Vec::with_capacity((self.rows / step + 1) * (self.cols / step + 1));
+        for r in (0..self.rows).step_by(step) {
+            for c in (0..self.cols).step_by(step) {
+                out.push(self.element(r, c));
+            }
+        }
+        out
+    }
+}
+
+/// A straight virtual aperture: the terminal transmits at `positions` evenly spaced points from
+/// `start` to `end` (both included).
+#[derive(Clone, Debug, PartialEq)]
+pub struct VirtualAperture {
+    /// First transmit position, metres.
+    pub start: Vec3,
+    /// Last transmit position, metres.
+    pub end: Vec3,
+    /// Number of transmit positions (≥ 2 for an aperture, 1 for a single snapshot).
+    pub positions: usize,
+}
+
+impl VirtualAperture {
+    /// Aperture length, metres.
+    pub fn length_m(&self) -> f32 {
+        self.start.distance(self.end)
+    }
+
+    /// Centre of the track.
+    pub fn centre(&self) -> Vec3 {
+        (self.start + self.end) * 0.5
+    }
+
+    /// Every `step`-th transmit position (step 1: all).
+    pub fn positions(&self, step: usize) -> Vec<Vec3> {
+        let n = self.positions.max(1);
+        (0..n)
+            .step_by(step.max(1))
+            .map(|i| {
+                if n == 1 {
+                    self.centre()
+                } else {
+                    self.start.lerp(self.end, i as f32 / (n - 1) as f32)
+                }
+            })
+            .collect()
+    }
+}
+
+/// Transmit-position spacing (metres) that samples the phase history of a scene seen within
+/// `half_angle_rad` of broadside without aliasing: the one-way phase `2π r_V/λ` changes by at most
+/// `2π·d·sin(half_angle)/λ` per step, which must stay below π, so `d ≤ λ / (2 sin half_angle)`.
+pub fn nyquist_spacing_m(wavelength_m: f32, half_angle_rad: f32) -> f32 {
+    wavelength_m / (2.0 * half_angle_rad.sin().abs().max(1e-6))
+}
+
+/// Theoretical resolutions of one hybrid-aperture pair at a scene point, metres:
+/// `(range, cross_range_virtual, cross_range_real_h, cross_range_real_v)`.
+///
+/// Range resolution is `c/B` in bistatic path length, i.e. `c / (B·|∇(r_V + r_R)|)` along the
+/// bisector where `|∇(r_V + r_R)| = 2 cos(β/2)` for bistatic angle β. Cross-range from an aperture
+/// of length `L` at distance `R` is `λR/L` for the one-way (virtual, transmitter-only) phase and for
+/// the receive array alike.
+pub fn pair_resolution_m(
+    point: Vec3,
+    array: &PlanarArray,
+    aperture: &VirtualAperture,
+    wavelength_m: f32,
+    bandwidth_hz: f32,
+) -> (f32, f32, f32, f32) {
+    let c = has_dsp::geometry::C_M_PER_S as f32;
+    let uv = (aperture.centre() - point).normalize_or_zero();
+    let ur = (array.centre - point).normalize_or_zero();
+    let grad = (uv + ur).length().max(1e-3);
+    let range = c / (bandwidth_hz * grad);
+    let rv = aperture.centre().distance(point);
+    let rr = array.centre.distance(point);
+    let xv = wavelength_m * rv / aperture.length_m().max(1e-3);
+    let xh = wavelength_m * rr / array.width_m;
+    let xz = wavelength_m * rr / array.height_m;
+    (range, xv, xh, xz)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn panel() -> PlanarArray {
+        PlanarArray {
+            centre: Vec3::new(10.0, 0.0, 5.0),
+            boresight_az_rad: std::f32::consts::PI,
+            rows: 32,
+            cols: 32,
+            width_m: 1.0,
+            height_m: 0.5,
+        }
+    }
+
+    #[test]
+    fn panel_spans_its_width_and_height_around_the_centre() {
+        let a = panel();
+        let els = a.elements(1);
+        assert_eq!(els.len(), 1024);
+        let mean = els.iter().copied().sum::<Vec3>() / els.len() as f32;
+        assert!(mean.distance(a.centre) < 1e-5);
+        let (dx, dz) = a.spacing_m();
+        assert!((dx - 1.0 / 32.0).abs() < 1e-7 && (dz - 0.5 / 32.0).abs() < 1e-7);
+        // Element 0 is bottom-left seen from behind: column runs along the tangent.
+        let first = a.element(0, 0);
+        let last = a.element(31, 31);
+        assert!((last.z - first.z - 31.0 * dz).abs() < 1e-5);
+        assert!(((last - first).dot(a.tangent()) - 31.0 * dx).abs() < 1e-5);
+        // The panel is vertical and perpendicular to the boresight.
+        assert!((last - first).dot(a.boresight()).abs() < 1e-5);
+        assert_eq!(a.elements(4).len(), 64);
+    }
+
+    #[test]
+    fn aperture_positions_are_even_and_include_both_ends() {
+        let ap = VirtualAperture {
+            start: Vec3::ZERO,
+            end: Vec3::new(3.0, 0.0, 0.0),
+            positions: 4,
+        };
+        let p = ap.positions(1);
+        assert_eq!(p, vec![Vec3::ZERO, Vec3::X, Vec3::X * 2.0, Vec3::X * 3.0]);
+        assert_eq!(ap.positions(2).len(), 2);
+        assert_eq!(ap.length_m(), 3.0);
+    }
+
+    #[test]
+    fn nyquist_spacing_is_half_a_wavelength_for_a_full_half_space() {
+        let d = nyquist_spacing_m(0.03, std::f32::consts::FRAC_PI_2);
+        assert!((d - 0.015).abs() < 1e-7);
+        assert!(nyquist_spacing_m(0.03, 0.5) > d);
+    }
+
+    #[test]
+    fn monostatic_range_resolution_is_half_the_path_resolution() {
+        let a = panel();
+        let ap = VirtualAperture {
+            start: a.centre,
+            end: a.centre,
+            positions: 1,
+        };
+        let (r, ..) = pair_resolution_m(Vec3::new(-20.0, 0.0, 5.0), &a, &ap, 0.03, 400e6);
+        assert!((r - 0.374_740_6).abs() < 1e-4, "{r}");
+    }
+}
