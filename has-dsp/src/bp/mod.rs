@@ -225,7 +225,7 @@ pub struct Snapshot<'a, T> {
 
 impl<T> Snapshot<'_, T> {
     fn validate(&self) -> Result<(), DspError> {
-        check_finite_vec3("snapshot.tx", self.tx)?;
+        check_local("snapshot.tx", self.tx)?;
         if self.profile_len == 0 {
             return Err(DspError::UnsupportedLength {
                 what: "snapshot.profile_len",
@@ -242,9 +242,25 @@ impl<T> Snapshot<'_, T> {
                 })?;
         check_len("snapshot.profiles", want, self.profiles.len())?;
         for p in self.rx {
-            check_finite_vec3("snapshot.rx", *p)?;
+            check_local("snapshot.rx", *p)?;
         }
         Ok(())
+    }
+}
+
+/// Largest grid-local coordinate (and grid extent) accepted, metres. Beyond it an `f32`
+/// coordinate's ulp (≥ 7.8 mm) makes the phase meaningless at centimetre wavelengths; the bound
+/// also keeps every squared distance finite, so no NaN can reach an accumulator.
+pub const MAX_LOCAL_M: f32 = 1.0e5;
+
+/// A grid-local position: finite and every component within ±[`MAX_LOCAL_M`].
+fn check_local(what: &'static str, p: Vec3) -> Result<(), DspError> {
+    check_finite_vec3(what, p)?;
+    let m = p.abs().max_element();
+    if m <= MAX_LOCAL_M {
+        Ok(())
+    } else {
+        Err(DspError::OutOfRange { what, value: m })
     }
 }
 
@@ -433,7 +449,8 @@ impl Backprojector {
     /// # Errors
     /// [`DspError::OutOfRange`] / [`DspError::NonFinite`] naming the field for a non-positive or
     /// non-finite `wavelength_m`, `dr_m`, grid spacing component, non-finite `r0_m` or origin;
-    /// [`DspError::UnsupportedLength`] for a zero grid dimension or a voxel count that overflows.
+    /// [`DspError::UnsupportedLength`] for a zero grid dimension or a voxel count that overflows;
+    /// [`DspError::OutOfRange`] for a grid extent beyond [`MAX_LOCAL_M`].
     pub fn new(cfg: BpConfig) -> Result<Self, DspError> {
         check_positive("config.wavelength_m", cfg.wavelength_m)?;
         check_positive("config.dr_m", cfg.dr_m)?;
@@ -455,6 +472,11 @@ impl Backprojector {
             what: "config.grid.dims",
             len: usize::MAX,
         })?;
+        let [nx, ny, nz] = cfg.grid.dims;
+        let extent =
+            cfg.grid.spacing * Vec3::new((nx - 1) as f32, (ny - 1) as f32, (nz - 1) as f32);
+        check_local("config.grid extent (spacing · (dims − 1))", extent)?;
+
         // Reciprocal formed in f64 and rounded once: relative error ≤ 2⁻²⁴ (bin positions only).
         let inv_lambda = (1.0 / cfg.wavelength_m as f64) as f32;
         let inv_dr = (1.0 / cfg.dr_m as f64) as f32;
@@ -500,7 +522,8 @@ impl Backprojector {
     ///
     /// # Errors
     /// [`DspError::UnsupportedLength`] for an empty profile, [`DspError::NonFinite`] for a
-    /// non-finite position, [`DspError::GridTooLarge`] if `acc` was made for a larger grid.
+    /// non-finite position, [`DspError::OutOfRange`] for a coordinate beyond ±[`MAX_LOCAL_M`],
+    /// [`DspError::GridTooLarge`] if `acc` was made for a larger grid.
     pub fn push(
         &self,
         acc: &mut AccF32<'_>,

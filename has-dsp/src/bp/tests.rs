@@ -486,6 +486,20 @@ fn bad_configuration_is_an_error_naming_the_field() {
         };
         assert_eq!(what, field);
     }
+    let wide = BpConfig {
+        grid: VoxelGrid {
+            spacing: Vec3::new(0.3, 1e5, 0.3),
+            ..ok.grid
+        },
+        ..ok
+    };
+    assert!(matches!(
+        Backprojector::new(wide),
+        Err(DspError::OutOfRange {
+            what: "config.grid extent (spacing · (dims − 1))",
+            ..
+        })
+    ));
     let huge = BpConfig {
         grid: VoxelGrid {
             dims: [usize::MAX, 2, 1],
@@ -551,6 +565,13 @@ fn bad_state_and_push_inputs_are_errors_not_panics() {
         bp.push(&mut acc, &p, tx, nan),
         Err(DspError::NonFinite {
             what: "snapshot.rx"
+        })
+    );
+    assert_eq!(
+        bp.push(&mut acc, &p, tx, Vec3::new(0.0, 0.0, -2e5)),
+        Err(DspError::OutOfRange {
+            what: "snapshot.rx",
+            value: 2e5
         })
     );
     assert_eq!(
