@@ -199,28 +199,40 @@ fn round_sat(a: i16, t: i64, s: u32) -> i16 {
     v.clamp(i16::MIN as i64, i16::MAX as i64) as i16
 }
 
+/// One butterfly `a, b ← a + w·b, a − w·b` with twiddle `(c, wi)` (Q15, `1.0 = 32768`), shift
+/// `s`; returns the larger output `|z|²` when `TRACK` (else 0).
+#[inline(always)]
+fn butterfly<const TRACK: bool>(a: &mut CQ15, b: &mut CQ15, c: i32, wi: i32, s: u32) -> u32 {
+    let (br, bi) = (b.re.0 as i64, b.im.0 as i64);
+    let tr = c as i64 * br - wi as i64 * bi;
+    let ti = c as i64 * bi + wi as i64 * br;
+    let (ar, ai) = (a.re.0, a.im.0);
+    let top = Complex::new(Q(round_sat(ar, tr, s)), Q(round_sat(ai, ti, s)));
+    let bot = Complex::new(Q(round_sat(ar, -tr, s)), Q(round_sat(ai, -ti, s)));
+    *a = top;
+    *b = bot;
+    if TRACK {
+        mag_sq(top).max(mag_sq(bot))
+    } else {
+        0
+    }
+}
+
 /// One radix-2 stage over butterflies of span `half`, with shift `s`; returns the largest output
-/// `|z|²` when `TRACK` (else 0).
+/// `|z|²` when `TRACK` (else 0). The twiddle loop is outermost so each twiddle is read once per
+/// stage.
 #[inline(always)]
 fn stage<const INVERSE: bool, const TRACK: bool>(buf: &mut [CQ15], half: usize, s: u32) -> u32 {
     let step = CIRCLE / (2 * half);
     let mut max = 0u32;
-    for chunk in buf.chunks_exact_mut(2 * half) {
-        let (lo, hi) = chunk.split_at_mut(half);
-        for (k, (a, b)) in lo.iter_mut().zip(hi.iter_mut()).enumerate() {
-            let (c, sn) = cos_sin(k * step);
-            // Forward twiddle e^{−jθ} = c − j·sn; inverse e^{+jθ} = c + j·sn.
-            let wi = if INVERSE { sn } else { -sn };
-            let (br, bi) = (b.re.0 as i64, b.im.0 as i64);
-            let tr = c as i64 * br - wi as i64 * bi;
-            let ti = c as i64 * bi + wi as i64 * br;
-            let (ar, ai) = (a.re.0, a.im.0);
-            let top = Complex::new(Q(round_sat(ar, tr, s)), Q(round_sat(ai, ti, s)));
-            let bot = Complex::new(Q(round_sat(ar, -tr, s)), Q(round_sat(ai, -ti, s)));
-            *a = top;
-            *b = bot;
-            if TRACK {
-                max = max.max(mag_sq(top)).max(mag_sq(bot));
+    for k in 0..half {
+        let (c, sn) = cos_sin(k * step);
+        // Forward twiddle e^{−jθ} = c − j·sn; inverse e^{+jθ} = c + j·sn.
+        let wi = if INVERSE { sn } else { -sn };
+        for chunk in buf.chunks_exact_mut(2 * half) {
+            let (lo, hi) = chunk.split_at_mut(half);
+            if let (Some(a), Some(b)) = (lo.get_mut(k), hi.get_mut(k)) {
+                max = max.max(butterfly::<TRACK>(a, b, c, wi, s));
             }
         }
     }

@@ -156,6 +156,26 @@ impl RangeCompressor {
         self.unambiguous_path_m
     }
 
+    /// Writes the window weights this compressor applies, per subcarrier in FFT order: the
+    /// configured window with the unused Nyquist subcarrier (index `n/2`) set to 0 (before the
+    /// `1/Σw` normalisation and before zero-forcing drops). A simulator tabulating the compressed
+    /// pulse `Σ_k w_k·e^{j2π s_k x/N}/Σw` should use exactly these weights.
+    ///
+    /// # Errors
+    /// `LengthMismatch` (`weights`: length `n`).
+    pub fn fill_weights(&self, weights: &mut [f32]) -> Result<(), DspError> {
+        let n = self.cfg.n_subcarriers;
+        check_len("weights", n, weights.len())?;
+        for (k, w) in weights.iter_mut().enumerate() {
+            *w = if k == n / 2 {
+                0.0
+            } else {
+                self.window.weight(k, n) as f32
+            };
+        }
+        Ok(())
+    }
+
     /// Per-subcarrier filter `w_k·G_k` (before `1/Σw`) and whether the subcarrier is used.
     #[inline]
     fn filter(&self, k: usize, s: Complex<f64>) -> (Complex<f64>, f64) {
@@ -423,6 +443,24 @@ mod tests {
             y - t
         } else {
             y
+        }
+    }
+
+    #[test]
+    fn weights_are_the_window_without_the_nyquist_subcarrier() {
+        let window = Window::Taylor {
+            nbar: 4,
+            sll_db: -35.0,
+        };
+        let rc = RangeCompressor::new(cfg(64, 1, window, RangeMode::Matched)).unwrap();
+        let mut w = vec![0.0f32; 64];
+        let mut full = vec![0.0f32; 64];
+        rc.fill_weights(&mut w).unwrap();
+        window.fill_f32(&mut full).unwrap();
+        assert_eq!(w[32], 0.0);
+        assert!(full[32] > 0.1);
+        for k in (0..64).filter(|&k| k != 32) {
+            assert_eq!(w[k], full[k]);
         }
     }
 
@@ -764,6 +802,8 @@ mod tests {
         len_err(rc.compress(&s[..1], &r, &mut p).unwrap_err(), "y");
         len_err(rc.compress(&s, &r[..1], &mut p).unwrap_err(), "reference");
         len_err(rc.compress(&s, &r, &mut p[..64]).unwrap_err(), "profile");
+        let mut w = vec![0.0f32; 63];
+        len_err(rc.fill_weights(&mut w).unwrap_err(), "weights");
         let mut nan = s.clone();
         nan[3] = Complex32::new(f32::NAN, 0.0);
         assert!(matches!(
