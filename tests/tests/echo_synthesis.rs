@@ -2,6 +2,7 @@
 //! sampling density, determinism and input errors.
 
 use glam::Vec3;
+use has_dsp::window::Window;
 use has_host::echo::{
     bistatic_amplitude, qpsk_symbols, visible_for, zadoff_chu, EchoConfig, EchoError, EchoSynth,
     Noise, PointScatterer, ScattererSet, VisibilityCache,
@@ -13,18 +14,12 @@ const FC: f64 = 10e9;
 const B: f64 = 400e6;
 const N: usize = 256;
 
-/// Periodic Hann in FFT order: `w(s) = ½(1 + cos 2πs/n)`, zero at `s = −n/2`, so the pulse is real.
+/// Periodic Hann in FFT order from has-dsp (zero at `s = −n/2`, so the pulse is real).
 fn hann_fft_order(n: usize) -> Vec<f32> {
-    (0..n)
-        .map(|k| {
-            let s = if k < n / 2 {
-                k as f64
-            } else {
-                k as f64 - n as f64
-            };
-            (0.5 * (1.0 + (2.0 * std::f64::consts::PI * s / n as f64).cos())) as f32
-        })
-        .collect()
+    EchoConfig::new(FC, B, n, 1)
+        .with_window(Window::Hann)
+        .unwrap()
+        .window
 }
 
 /// Reference range compression (naive inverse DFT in f64): `Y·conj(S)·w`, zero-padded to `n·zp`,
@@ -172,10 +167,10 @@ fn direct_profiles_equal_ofdm_plus_compression_within_kernel_error() {
         .synth_ofdm_points(&pts, tx, &rx, &s, Noise::None, 0, &mut y)
         .unwrap();
     // Each bin of (a) differs from the exact compressed sum by at most Σ|a_p|·error_bound
-    // (truncated tail + interpolation + f32 taps); (b) is exact up to f32 rounding of Y
+    // (truncated tail + interpolation + f32 taps + phasor table); (b) is exact up to f32 rounding of Y
     // (≤ 1.2e-7 relative, i.e. ≤ 1e-6·Σ|a_p| after compression).
     let sum_a: f32 = pts.iter().map(|p| p.amp.norm()).sum();
-    let bound = sum_a * (k.error_bound() + 1e-6);
+    let bound = sum_a * (synth.error_bound() + 1e-6);
     let mut worst = 0.0f32;
     for e in 0..rx.len() {
         let b = compress_reference(&y[e * N..(e + 1) * N], &s, &cfg.window, zp);
@@ -396,7 +391,7 @@ fn surface_profiles_equal_surface_ofdm_plus_compression() {
     // the circular wrap of (b) carries only the tail. Area weights are ≤ 1/ρ·(1 + 1/(Aρ)) < 2.5.
     let lambda = cfg.wavelength_m();
     let max_amp = bistatic_amplitude(1.0, 1.0, 1.0, 2.5, 50.0, 50.0, lambda) as f32;
-    let bound = vis.len() as f32 * max_amp * (synth.kernel().error_bound() + 1e-6);
+    let bound = vis.len() as f32 * max_amp * (synth.error_bound() + 1e-6);
     for e in 0..2 {
         let b = compress_reference(&y[e * n..(e + 1) * n], &s, &cfg.window, 1);
         for (va, vb) in a[e * n..(e + 1) * n].iter().zip(&b) {

@@ -92,6 +92,20 @@ impl EchoConfig {
         }
     }
 
+    /// The same configuration with `window`'s weights (FFT order, as range compression applies
+    /// them) in place of the current ones.
+    ///
+    /// # Errors
+    /// `InvalidParameter` (`window`) for bad Taylor parameters or `n_subcarriers == 0`.
+    pub fn with_window(mut self, window: has_dsp::window::Window) -> Result<Self, EchoError> {
+        let mut w = vec![0.0f32; self.n_subcarriers];
+        window
+            .fill_f32(&mut w)
+            .map_err(|e| EchoError::invalid("window", format!("{window:?}: {e}")))?;
+        self.window = w;
+        Ok(self)
+    }
+
     /// Profile bin spacing `c/(B·zero_pad)` in metres of bistatic path.
     pub fn bin_spacing_m(&self) -> f64 {
         has_dsp::geometry::C_M_PER_S / (self.bandwidth_hz * self.zero_pad as f64)
