@@ -57,8 +57,10 @@ pub struct BenchRow {
     pub count: usize,
     /// Wall time, seconds.
     pub seconds: f64,
-    /// Items per second.
+    /// Items per second of wall time.
     pub per_second: f64,
+    /// Process CPU time (user + system) spent, seconds, if the OS reports it (Linux).
+    pub cpu_seconds: Option<f64>,
     /// A sanity figure (hit fraction, visible fraction, ...), free text.
     pub note: String,
 }
@@ -71,9 +73,33 @@ impl BenchRow {
             count,
             seconds,
             per_second: count as f64 / seconds.max(1e-12),
+            cpu_seconds: None,
             note,
         }
     }
+}
+
+/// Process CPU time (user + system), seconds, from `/proc/self/stat` (Linux; clock ticks assumed
+/// 100 Hz, the Linux `USER_HZ`). On a shared machine wall time includes waiting for a core; CPU
+/// time does not, so `count / cpu_seconds` is the throughput per busy core.
+pub fn process_cpu_seconds() -> Option<f64> {
+    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
+    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
+    let rest = &stat[stat.rfind(')')? + 2..];
+    let f: Vec<&str> = rest.split_whitespace().collect();
+    let utime: f64 = f.get(11)?.parse().ok()?;
+    let stime: f64 = f.get(12)?.parse().ok()?;
+    Some((utime + stime) / 100.0)
+}
+
+/// Runs `work`, returning its result, wall seconds and CPU seconds (if known).
+fn timed<T>(work: impl FnOnce() -> T) -> (T, f64, Option<f64>) {
+    let c0 = process_cpu_seconds();
+    let t = Instant::now();
+    let out = work();
+    let wall = t.elapsed().as_secs_f64();
+    let cpu = c0.and_then(|c0| process_cpu_seconds().map(|c1| c1 - c0));
+    (out, wall, cpu)
 }
 
 /// SplitMix64: a small deterministic generator for the scene and the rays.
@@ -206,17 +232,17 @@ pub fn bench_closest(
     threads: usize,
 ) -> anyhow::Result<BenchRow> {
     let p = pool(threads)?;
-    let t = Instant::now();
-    let hits = p.install(|| scene.closest_hits(rays, f32::INFINITY));
-    let secs = t.elapsed().as_secs_f64();
+    let (hits, secs, cpu) = timed(|| p.install(|| scene.closest_hits(rays, f32::INFINITY)));
     let hit = hits.iter().filter(|h| h.is_some()).count();
-    Ok(BenchRow::new(
+    let mut row = BenchRow::new(
         "closest hit",
         threads,
         rays.len(),
         secs,
         format!("{:.1} % hit", 100.0 * hit as f64 / rays.len().max(1) as f64),
-    ))
+    );
+    row.cpu_seconds = cpu;
+    Ok(row)
 }
 
 /// Visibility segments from 20–60 m up to 1.5 m above the ground.
@@ -240,11 +266,9 @@ pub fn bench_visibility(
     threads: usize,
 ) -> anyhow::Result<BenchRow> {
     let p = pool(threads)?;
-    let t = Instant::now();
-    let vis = p.install(|| scene.visible_many(segments));
-    let secs = t.elapsed().as_secs_f64();
+    let (vis, secs, cpu) = timed(|| p.install(|| scene.visible_many(segments)));
     let seen = vis.iter().filter(|&&v| v).count();
-    Ok(BenchRow::new(
+    let mut row = BenchRow::new(
         "visibility (any hit)",
         threads,
         segments.len(),
@@ -253,23 +277,31 @@ pub fn bench_visibility(
             "{:.1} % visible",
             100.0 * seen as f64 / segments.len().max(1) as f64
         ),
-    ))
+    );
+    row.cpu_seconds = cpu;
+    Ok(row)
 }
 
 /// Prints rows as an aligned table.
 pub fn print_table(rows: &[BenchRow]) {
     println!(
-        "{:<24} {:>7} {:>10} {:>10} {:>14}  note",
-        "measurement", "threads", "count", "time (s)", "per second"
+        "{:<24} {:>7} {:>10} {:>10} {:>12} {:>10} {:>14}  note",
+        "measurement", "threads", "count", "wall (s)", "per wall s", "cpu (s)", "per cpu s"
     );
     for r in rows {
+        let (cpu, per_cpu) = match r.cpu_seconds {
+            Some(c) if c > 0.0 => (format!("{c:.2}"), format!("{:.3e}", r.count as f64 / c)),
+            _ => ("-".into(), "-".into()),
+        };
         println!(
-            "{:<24} {:>7} {:>10} {:>10.4} {:>14}  {}",
+            "{:<24} {:>7} {:>10} {:>10.4} {:>12} {:>10} {:>14}  {}",
             r.name,
             r.threads,
             r.count,
             r.seconds,
             format!("{:.3e}", r.per_second),
+            cpu,
+            per_cpu,
             r.note
         );
     }
@@ -328,6 +360,10 @@ fn raytrace(a: &RaytraceArgs) -> anyhow::Result<()> {
             a.seed
         );
         print_table(&rows);
+        println!(
+            "per cpu s = count / process CPU time: the throughput per busy core, unaffected by \
+             other processes competing for the cores (wall figures are)."
+        );
     }
     Ok(())
 }
@@ -335,6 +371,26 @@ fn raytrace(a: &RaytraceArgs) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn zero_sizes_are_rejected_naming_the_option() {
+        let e = run(BenchCmd::Raytrace(RaytraceArgs {
+            cells: 0,
+            rays: 10,
+            seed: 1,
+            json: false,
+        }))
+        .unwrap_err();
+        assert!(e.to_string().contains("--cells (0)"), "{e}");
+    }
+
+    #[test]
+    fn cpu_time_is_reported_and_non_negative_on_linux() {
+        let (_, _, cpu) = timed(|| (0..20_000_000u64).fold(0u64, |a, b| a ^ b.wrapping_mul(b)));
+        if cfg!(target_os = "linux") {
+            assert!(cpu.unwrap() >= 0.0);
+        }
+    }
 
     #[test]
     fn default_bench_city_has_at_least_100k_triangles_and_is_deterministic() {

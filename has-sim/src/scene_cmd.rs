@@ -77,3 +77,55 @@ pub fn run(cmd: SceneCmd) -> anyhow::Result<()> {
         }
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn fixture(name: &str) -> PathBuf {
+        PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+            .join("../fixtures")
+            .join(name)
+    }
+
+    #[test]
+    fn export_writes_obj_and_ply_that_load_back() {
+        let dir = std::env::temp_dir().join(format!("has-scene-cmd-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let scene = fixture("city_block.toml");
+        let want = load_scene_objects(&scene).unwrap();
+        let n: usize = want.iter().map(|o| o.triangles.len()).sum();
+        for ext in ["obj", "ply"] {
+            let out = dir.join(format!("city.{ext}"));
+            run(SceneCmd::Export {
+                scene: scene.clone(),
+                out: out.clone(),
+            })
+            .unwrap();
+            let back =
+                has_host::io::load_objects(&out, Some(has_host::Material::Concrete)).unwrap();
+            assert_eq!(back.iter().map(|o| o.triangles.len()).sum::<usize>(), n);
+        }
+        run(SceneCmd::Info {
+            scene: fixture("sionna_small/scene.xml"),
+        })
+        .unwrap();
+        std::fs::remove_dir_all(&dir).unwrap();
+    }
+
+    #[test]
+    fn export_errors_name_the_bad_file_or_extension() {
+        let e = run(SceneCmd::Export {
+            scene: fixture("no_such_scene.toml"),
+            out: std::env::temp_dir().join("x.obj"),
+        })
+        .unwrap_err();
+        assert!(format!("{e:#}").contains("no_such_scene.toml"), "{e:#}");
+        let e = run(SceneCmd::Export {
+            scene: fixture("city_block.toml"),
+            out: std::env::temp_dir().join("x.stl"),
+        })
+        .unwrap_err();
+        assert!(format!("{e:#}").contains("'stl'"), "{e:#}");
+    }
+}
