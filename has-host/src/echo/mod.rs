@@ -92,8 +92,9 @@ impl EchoConfig {
         }
     }
 
-    /// The same configuration with `window`'s weights (FFT order, as range compression applies
-    /// them) in place of the current ones.
+    /// The same configuration with `window`'s weights (FFT order) in place of the current ones,
+    /// the unpaired Nyquist subcarrier `n/2` set to 0 as has-dsp range compression does
+    /// ([`has_dsp::range::RangeCompressor::fill_weights`]).
     ///
     /// # Errors
     /// `InvalidParameter` (`window`) for bad Taylor parameters or `n_subcarriers == 0`.
@@ -102,8 +103,31 @@ impl EchoConfig {
         window
             .fill_f32(&mut w)
             .map_err(|e| EchoError::invalid("window", format!("{window:?}: {e}")))?;
+        let half = self.n_subcarriers / 2;
+        if self.n_subcarriers % 2 == 0 {
+            w[half] = 0.0;
+        }
         self.window = w;
         Ok(self)
+    }
+
+    /// The configuration matching a has-dsp range compressor (`n`, `B`, zero-padding and the
+    /// exact weights it applies), profile bins `0 … n·zero_pad − 1` from path 0 like its output,
+    /// at carrier `fc_hz`. Direct synthesis (a) then reproduces its profiles within
+    /// [`EchoSynth::error_bound`].
+    ///
+    /// # Errors
+    /// `InvalidParameter` for a bad `fc_hz`.
+    pub fn for_compressor(
+        fc_hz: f64,
+        rc: &has_dsp::range::RangeCompressor,
+    ) -> Result<Self, EchoError> {
+        let c = rc.config();
+        let mut cfg = EchoConfig::new(fc_hz, c.bandwidth_hz, c.n_subcarriers, c.zero_pad);
+        rc.fill_weights(&mut cfg.window)
+            .map_err(|e| EchoError::invalid("window", e))?;
+        cfg.validate()?;
+        Ok(cfg)
     }
 
     /// Profile bin spacing `c/(B·zero_pad)` in metres of bistatic path.
