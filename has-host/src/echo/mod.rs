@@ -104,7 +104,7 @@ impl EchoConfig {
             .fill_f32(&mut w)
             .map_err(|e| EchoError::invalid("window", format!("{window:?}: {e}")))?;
         let half = self.n_subcarriers / 2;
-        if self.n_subcarriers % 2 == 0 {
+        if 2 * half == self.n_subcarriers {
             w[half] = 0.0;
         }
         self.window = w;
