@@ -44,6 +44,9 @@ pub struct RaytraceArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Scene of the paths-per-second measurement (500 UEs, order 3; see `bench_paths`).
+    #[arg(long, default_value = "fixtures/city_block.toml")]
+    pub paths_scene: std::path::PathBuf,
 }
 
 /// One measured line of the table.
@@ -66,7 +69,13 @@ pub struct BenchRow {
 }
 
 impl BenchRow {
-    fn new(name: &str, threads: usize, count: usize, seconds: f64, note: String) -> Self {
+    pub(crate) fn new(
+        name: &str,
+        threads: usize,
+        count: usize,
+        seconds: f64,
+        note: String,
+    ) -> Self {
         BenchRow {
             name: name.into(),
             threads,
@@ -339,6 +348,11 @@ fn raytrace(a: &RaytraceArgs) -> anyhow::Result<()> {
     for &t in &threads {
         rows.push(bench_visibility(&scene, &segs, t)?);
     }
+    rows.extend(crate::bench_paths::bench_paths(
+        &a.paths_scene,
+        &threads,
+        a.seed,
+    )?);
     if a.json {
         let v = serde_json::json!({
             "scene": {

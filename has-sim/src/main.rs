@@ -7,8 +7,10 @@
 use clap::{Parser, Subcommand};
 
 mod bench_dsp;
+mod bench_paths;
 mod bench_raytrace;
 mod mesh_cmd;
+mod paths_cmd;
 mod scene_cmd;
 
 /// Hybrid aperture sensing simulator.
@@ -39,6 +41,8 @@ enum Command {
         #[command(subcommand)]
         cmd: bench_raytrace::BenchCmd,
     },
+    /// Propagation paths (LOS, specular reflections) between a transmitter and a receiver.
+    Paths(paths_cmd::PathsArgs),
 }
 
 fn main() {
@@ -55,6 +59,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Mesh(a) => mesh_cmd::run(a),
         Command::Scene { cmd } => scene_cmd::run(cmd),
         Command::Bench { cmd } => bench_raytrace::run(cmd),
+        Command::Paths(args) => paths_cmd::run(args),
     }
 }
 

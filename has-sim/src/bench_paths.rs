@@ -1,0 +1,84 @@
+//! Paths-per-second measurement of `has-sim bench raytrace`: the channel-prediction tracer
+//! (`has_host::paths`) with one base station at (0, 0, 25) m and 500 UEs at seeded random street
+//! positions 1.5 m above ground, order 3, default tracer settings (200 000 SBR rays). One row per
+//! thread count; the time includes the candidate search (once per base station) and the tracing
+//! of every UE; `count` is the number of paths found.
+
+use std::path::Path;
+use std::time::Instant;
+
+use glam::{DVec3, Vec3};
+use has_host::paths::{Tracer, TracerConfig};
+use has_host::scenario::SceneSpec;
+use has_host::Scene;
+use rand::{Rng, SeedableRng};
+
+use crate::bench_raytrace::BenchRow;
+
+/// Number of UEs of the measurement.
+pub const UES: usize = 500;
+
+/// Base-station position of the measurement, metres.
+pub const BS: DVec3 = DVec3::new(0.0, 0.0, 25.0);
+
+/// `n` UE positions, uniformly in the scene's extent (inset 10 m) at `height` above its lowest
+/// point, rejected where a ray straight up hits something (inside or under a building).
+pub fn random_ues(scene: &Scene, n: usize, height: f64, seed: u64) -> Vec<DVec3> {
+    let (lo, hi) = scene.bounds();
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+    let mut out = Vec::with_capacity(n);
+    let mut tries = 0usize;
+    while out.len() < n && tries < 1000 * n.max(1) {
+        tries += 1;
+        let x = rng.random_range(lo.x as f64 + 10.0..hi.x as f64 - 10.0);
+        let y = rng.random_range(lo.y as f64 + 10.0..hi.y as f64 - 10.0);
+        let p = DVec3::new(x, y, lo.z as f64 + height);
+        if scene
+            .closest_hit(p.as_vec3(), Vec3::Z, 0.0, f32::INFINITY)
+            .is_none()
+        {
+            out.push(p);
+        }
+    }
+    out
+}
+
+/// Paths per second on `scene_file` with each thread count of `threads`.
+pub fn bench_paths(
+    scene_file: &Path,
+    threads: &[usize],
+    seed: u64,
+) -> anyhow::Result<Vec<BenchRow>> {
+    let scene = SceneSpec::load(scene_file)
+        .and_then(|s| s.build())
+        .map_err(|e| anyhow::anyhow!("--paths-scene: {e}"))?;
+    let tracer = Tracer::new(&scene, TracerConfig::default())?;
+    let ues = random_ues(&scene, UES, 1.5, seed);
+    let mut rows = Vec::new();
+    for &t in threads {
+        let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build()?;
+        let (candidates, prepare_s, paths, seconds) = pool.install(|| -> anyhow::Result<_> {
+            let t0 = Instant::now();
+            let cand = tracer.prepare_tx(BS)?;
+            let prepare_s = t0.elapsed().as_secs_f64();
+            let all = tracer.trace_many(&cand, &ues)?;
+            let n: usize = all.iter().map(Vec::len).sum();
+            Ok((cand.len(), prepare_s, n, t0.elapsed().as_secs_f64()))
+        })?;
+        rows.push(BenchRow::new(
+            "paths (500 UEs, order 3)",
+            t,
+            paths,
+            seconds,
+            format!(
+                "{} UEs, {} facets, {} candidate sequences in {:.3} s, {:.0} UEs/s",
+                ues.len(),
+                tracer.facets().facets.len(),
+                candidates,
+                prepare_s,
+                ues.len() as f64 / seconds.max(1e-12)
+            ),
+        ));
+    }
+    Ok(rows)
+}

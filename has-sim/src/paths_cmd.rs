@@ -1,0 +1,214 @@
+//! `has-sim paths`: propagation paths between one transmitter and one receiver in a scene file
+//! (TOML `[scene]` table, see `has_host::scenario`), printed one per line or as JSON.
+
+use std::path::PathBuf;
+
+use glam::DVec3;
+use has_host::paths::{CandidateMode, Path, Tracer, TracerConfig};
+use has_host::scenario::SceneSpec;
+
+/// Arguments of `has-sim paths`.
+#[derive(clap::Args, Debug)]
+pub struct PathsArgs {
+    /// Scene file (TOML with a `[scene]` table).
+    #[arg(long)]
+    pub scene: PathBuf,
+    /// Transmitter position "X,Y,Z" in metres.
+    #[arg(long, allow_hyphen_values = true)]
+    pub tx: String,
+    /// Receiver position "X,Y,Z" in metres.
+    #[arg(long, allow_hyphen_values = true)]
+    pub rx: String,
+    /// Highest number of reflections per path.
+    #[arg(long, default_value_t = 3)]
+    pub max_order: usize,
+    /// Carrier frequency in GHz.
+    #[arg(long, default_value_t = 10.0)]
+    pub freq_ghz: f64,
+    /// Shoot-and-bounce rays launched from the transmitter to find candidate facet sequences.
+    #[arg(long, default_value_t = 200_000)]
+    pub rays: usize,
+    /// Enumerate every facet sequence instead of shooting rays (complete; small scenes only).
+    #[arg(long)]
+    pub exhaustive: bool,
+    /// Print JSON `{"paths":[…]}` instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Parses `"X,Y,Z"` (three finite numbers) for flag `flag`.
+pub fn parse_point(flag: &str, s: &str) -> anyhow::Result<DVec3> {
+    let parts: Vec<&str> = s.split(',').map(str::trim).collect();
+    let bad = || anyhow::anyhow!("{flag}: '{s}' is not X,Y,Z (three finite numbers, metres)");
+    if parts.len() != 3 {
+        return Err(bad());
+    }
+    let mut v = [0.0f64; 3];
+    for (slot, p) in v.iter_mut().zip(&parts) {
+        *slot = p.parse::<f64>().map_err(|_| bad())?;
+        if !slot.is_finite() {
+            return Err(bad());
+        }
+    }
+    Ok(DVec3::from_array(v))
+}
+
+/// A JSON number, or `null` if not finite (e.g. the gain of a zero amplitude).
+fn num(x: f64) -> String {
+    if x.is_finite() {
+        serde_json::Value::from(x).to_string()
+    } else {
+        "null".into()
+    }
+}
+
+/// One path as the JSON object of `has-sim paths --json`, keys in the documented order:
+/// `delay_ns, gain_db, phase_rad, aod_deg, zod_deg, aoa_deg, zoa_deg, interactions`.
+pub fn path_json(p: &Path) -> String {
+    let kinds: Vec<String> = p
+        .interactions
+        .iter()
+        .map(|i| format!("\"{}\"", i.kind()))
+        .collect();
+    format!(
+        "{{\"delay_ns\":{},\"gain_db\":{},\"phase_rad\":{},\"aod_deg\":{},\"zod_deg\":{},\"aoa_deg\":{},\"zoa_deg\":{},\"interactions\":[{}]}}",
+        num(p.delay_s * 1e9),
+        num(p.gain_db()),
+        num(p.a.arg()),
+        num(p.aod.to_degrees()),
+        num(p.zod.to_degrees()),
+        num(p.aoa.to_degrees()),
+        num(p.zoa.to_degrees()),
+        kinds.join(",")
+    )
+}
+
+/// `{"paths":[…]}` for a set of paths.
+pub fn paths_json(paths: &[Path]) -> String {
+    let items: Vec<String> = paths.iter().map(path_json).collect();
+    format!("{{\"paths\":[{}]}}", items.join(","))
+}
+
+/// Runs `has-sim paths`.
+pub fn run(args: PathsArgs) -> anyhow::Result<()> {
+    let tx = parse_point("--tx", &args.tx)?;
+    let rx = parse_point("--rx", &args.rx)?;
+    if !(args.freq_ghz.is_finite() && args.freq_ghz > 0.0) {
+        anyhow::bail!("--freq-ghz: {} is not a positive frequency", args.freq_ghz);
+    }
+    if args.max_order > has_host::paths::MAX_ORDER {
+        anyhow::bail!(
+            "--max-order: {} is above {}",
+            args.max_order,
+            has_host::paths::MAX_ORDER
+        );
+    }
+    if args.rays == 0 {
+        anyhow::bail!("--rays: 0 (need at least 1)");
+    }
+    // Flattened into one line: the scene errors already name the file and the cause.
+    let scene = SceneSpec::load(&args.scene)
+        .and_then(|s| s.build())
+        .map_err(|e| anyhow::anyhow!("--scene: {e}"))?;
+    let tracer = Tracer::new(
+        &scene,
+        TracerConfig {
+            frequency_hz: args.freq_ghz * 1e9,
+            max_order: args.max_order,
+            candidates: if args.exhaustive {
+                CandidateMode::Exhaustive
+            } else {
+                CandidateMode::Sbr { rays: args.rays }
+            },
+            ..TracerConfig::default()
+        },
+    )?;
+    let paths = tracer.paths(tx, rx)?;
+    if args.json {
+        println!("{}", paths_json(&paths));
+        return Ok(());
+    }
+    println!(
+        "{:>4} {:>11} {:>9} {:>10} {:>8} {:>8} {:>8} {:>8}  interactions",
+        "#", "delay_ns", "gain_db", "phase_rad", "aod_deg", "zod_deg", "aoa_deg", "zoa_deg"
+    );
+    for (i, p) in paths.iter().enumerate() {
+        let kinds: Vec<String> = p
+            .interactions
+            .iter()
+            .map(|it| match it {
+                has_host::paths::Interaction::Reflection { object, .. } => {
+                    format!("reflection({})", scene.objects[*object as usize].name)
+                }
+                other => other.kind().to_string(),
+            })
+            .collect();
+        println!(
+            "{:>4} {:>11.4} {:>9.2} {:>10.4} {:>8.2} {:>8.2} {:>8.2} {:>8.2}  {}",
+            i,
+            p.delay_s * 1e9,
+            p.gain_db(),
+            p.a.arg(),
+            p.aod.to_degrees(),
+            p.zod.to_degrees(),
+            p.aoa.to_degrees(),
+            p.zoa.to_degrees(),
+            kinds.join(" > ")
+        );
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn parse_point_accepts_three_numbers_and_names_flag_otherwise() {
+        assert_eq!(
+            parse_point("--tx", "1, -2.5,3e1").unwrap(),
+            DVec3::new(1.0, -2.5, 30.0)
+        );
+        for bad in ["1,2", "1,2,3,4", "a,b,c", "NaN,0,0", "1,inf,0", ""] {
+            let e = parse_point("--rx", bad).unwrap_err().to_string();
+            assert!(e.starts_with(&format!("--rx: '{bad}'")), "{e}");
+        }
+    }
+
+    #[test]
+    fn json_has_documented_keys_in_order_and_parses() {
+        let p = Path {
+            delay_s: 1e-7,
+            length_m: 29.979_245_8,
+            a: num_complex::Complex64::new(0.0, 1e-3),
+            jones: [[num_complex::Complex64::new(0.0, 0.0); 2]; 2],
+            aod: 0.5,
+            zod: 1.0,
+            aoa: -0.5,
+            zoa: 2.0,
+            interactions: vec![has_host::paths::Interaction::Los],
+        };
+        let s = paths_json(&[p]);
+        let v: serde_json::Value = serde_json::from_str(&s).unwrap();
+        let o = &v["paths"][0];
+        assert!((o["delay_ns"].as_f64().unwrap() - 100.0).abs() < 1e-9);
+        assert!((o["gain_db"].as_f64().unwrap() + 60.0).abs() < 1e-9);
+        assert!((o["phase_rad"].as_f64().unwrap() - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
+        assert_eq!(o["interactions"][0], "los");
+        let keys = [
+            "delay_ns",
+            "gain_db",
+            "phase_rad",
+            "aod_deg",
+            "zod_deg",
+            "aoa_deg",
+            "zoa_deg",
+            "interactions",
+        ];
+        let pos: Vec<usize> = keys
+            .iter()
+            .map(|k| s.find(&format!("\"{k}\"")).unwrap())
+            .collect();
+        assert!(pos.windows(2).all(|w| w[0] < w[1]), "{s}");
+    }
+}
