@@ -228,6 +228,11 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         println!("{}", summary_line("mesh (has)", &m));
         report["truth_points"] = serde_json::json!(truth.len());
         report["metrics"] = serde_json::json!({"cloud": cloud, "mesh": m, "mesh_sample_density_per_m2": a.truth_density});
+        if rule.is_some() {
+            let u = metrics_json(&out.mesh.sample(a.truth_density, 2)?, truth)?;
+            println!("{}", summary_line("mesh (has), untrimmed", &u));
+            report["metrics"]["mesh_untrimmed"] = u;
+        }
     }
     if a.compare_crate {
         let c = compare_crate(
@@ -236,6 +241,7 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
             a.depth,
             truth.as_deref(),
             a.truth_density,
+            rule.map(|r| (r, params.density_k)),
         )?;
         report["poisson_reconstruction_crate"] = c;
     }
@@ -253,13 +259,15 @@ fn compare_crate(
     _: u32,
     _: Option<&[Vec3]>,
     _: f64,
+    _: Option<(Trim, usize)>,
 ) -> anyhow::Result<serde_json::Value> {
     bail!("--compare-crate: has-sim was built without the `poisson-crate` feature (cargo build --features poisson-crate)")
 }
 
 /// Meshes the same oriented points with `poisson_reconstruction` 0.4 (f64, its own B-spline
 /// multigrid and marching cubes): screening 0 and density-estimation depth depth − 2 are its
-/// README's habits; its `max_depth` is our depth.
+/// README's habits; its `max_depth` is our depth. The crate does not trim: when a trim rule is
+/// given, the same rule on the same support density is applied to its mesh too.
 #[cfg(feature = "poisson-crate")]
 fn compare_crate(
     points: &[Vec3],
@@ -267,6 +275,7 @@ fn compare_crate(
     depth: u32,
     truth: Option<&[Vec3]>,
     density: f64,
+    trim_rule: Option<(Trim, usize)>,
 ) -> anyhow::Result<serde_json::Value> {
     use poisson_reconstruction::PoissonReconstruction;
     let p: Vec<nalgebra::Point3<f64>> = points
@@ -316,8 +325,16 @@ fn compare_crate(
     if let Some(truth) = truth {
         let s1 = mesh.sample(density, 2)?;
         let m = metrics_json(&s1, truth)?;
-        println!("{}", summary_line("mesh (poisson_reconstruction)", &m));
-        out["metrics"] = m;
+        println!("{}", summary_line("mesh (crate), untrimmed", &m));
+        out["metrics_untrimmed"] = m;
+        if let Some((rule, k)) = trim_rule {
+            let d = has_host::mesh::support_density(points, &mesh.vertices, k)?;
+            let t = trim(&mesh, &d, rule)?;
+            let m = metrics_json(&t.sample(density, 2)?, truth)?;
+            println!("{}", summary_line("mesh (crate), same trim", &m));
+            out["metrics"] = m;
+            out["trimmed_faces"] = serde_json::json!(t.face_count());
+        }
     }
     Ok(out)
 }

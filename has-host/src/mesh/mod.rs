@@ -19,7 +19,9 @@ use crate::knn::GeometryError;
 use crate::metrics;
 
 pub use normals::{estimate_normals, Orientation};
-pub use poisson::{screened_poisson, trim, trim_by_density, PoissonOutput, PoissonParams, Trim};
+pub use poisson::{
+    screened_poisson, support_density, trim, trim_by_density, PoissonOutput, PoissonParams, Trim,
+};
 
 /// An indexed triangle mesh.
 #[derive(Clone, Debug, Default, PartialEq)]

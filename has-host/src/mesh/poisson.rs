@@ -214,6 +214,8 @@ struct System {
     coef: Vec<f32>,
     /// Per sorted sample: its cell.
     cell: Vec<[usize; 3]>,
+    /// Per z slab: the (x, y) of nodes with a sample in an adjacent cell (screened nodes).
+    screened: Vec<Vec<(u32, u32)>>,
 }
 
 impl System {
@@ -307,6 +309,25 @@ impl System {
                 diag[grid.idx(c[0] + o[0], c[1] + o[1], c[2] + o[2])] += k * w * w;
             }
         }
+        let mut mark = vec![false; grid.len()];
+        for c in &cell {
+            for (o, _) in corner_weights(Vec3::ZERO) {
+                mark[grid.idx(c[0] + o[0], c[1] + o[1], c[2] + o[2])] = true;
+            }
+        }
+        let screened = (0..nz)
+            .map(|z| {
+                let mut v = Vec::new();
+                for y in 0..ny {
+                    for x in 0..nx {
+                        if mark[grid.idx(x, y, z)] {
+                            v.push((x as u32, y as u32));
+                        }
+                    }
+                }
+                v
+            })
+            .collect();
         System {
             grid,
             b,
@@ -315,6 +336,7 @@ impl System {
             frac,
             coef,
             cell,
+            screened,
         }
     }
 
@@ -338,54 +360,71 @@ impl System {
             .collect();
         let ncx = nx - 1;
         let ncy = ny - 1;
-        y.par_chunks_mut(nx * ny).enumerate().for_each(|(z, slab)| {
+        let plane = nx * ny;
+        y.par_chunks_mut(plane).enumerate().for_each(|(z, slab)| {
+            let base = z * plane;
             for yy in 0..ny {
+                let row = base + yy * nx;
+                let interior_yz = yy > 0 && yy + 1 < ny && z > 0 && z + 1 < nz;
                 for xx in 0..nx {
-                    let i = g.idx(xx, yy, z);
+                    let i = row + xx;
                     let xi = x[i];
-                    let mut acc = 0.0;
-                    if xx > 0 {
-                        acc += xi - x[i - 1];
-                    }
-                    if xx + 1 < nx {
-                        acc += xi - x[i + 1];
-                    }
-                    if yy > 0 {
-                        acc += xi - x[i - nx];
-                    }
-                    if yy + 1 < ny {
-                        acc += xi - x[i + nx];
-                    }
-                    if z > 0 {
-                        acc += xi - x[i - nx * ny];
-                    }
-                    if z + 1 < nz {
-                        acc += xi - x[i + nx * ny];
-                    }
-                    // Screening gathered from the (up to) 8 cells around the node.
-                    for cz in z.saturating_sub(1)..=z.min(nz - 2) {
-                        for cy in yy.saturating_sub(1)..=yy.min(ny - 2) {
-                            for cx in xx.saturating_sub(1)..=xx.min(nx - 2) {
-                                let cid = cx + ncx * (cy + ncy * cz);
-                                let (a, b) = (
-                                    self.cell_start[cid] as usize,
-                                    self.cell_start[cid + 1] as usize,
-                                );
-                                if a == b {
-                                    continue;
-                                }
-                                let o = [xx - cx, yy - cy, z - cz];
-                                for (f, sp) in self.frac[a..b].iter().zip(&s[a..b]) {
-                                    let w = (if o[0] == 1 { f.x } else { 1.0 - f.x })
-                                        * (if o[1] == 1 { f.y } else { 1.0 - f.y })
-                                        * (if o[2] == 1 { f.z } else { 1.0 - f.z });
-                                    acc += w * sp;
-                                }
+                    let acc = if interior_yz && xx > 0 && xx + 1 < nx {
+                        6.0 * xi
+                            - x[i - 1]
+                            - x[i + 1]
+                            - x[i - nx]
+                            - x[i + nx]
+                            - x[i - plane]
+                            - x[i + plane]
+                    } else {
+                        let mut acc = 0.0;
+                        if xx > 0 {
+                            acc += xi - x[i - 1];
+                        }
+                        if xx + 1 < nx {
+                            acc += xi - x[i + 1];
+                        }
+                        if yy > 0 {
+                            acc += xi - x[i - nx];
+                        }
+                        if yy + 1 < ny {
+                            acc += xi - x[i + nx];
+                        }
+                        if z > 0 {
+                            acc += xi - x[i - plane];
+                        }
+                        if z + 1 < nz {
+                            acc += xi - x[i + plane];
+                        }
+                        acc
+                    };
+                    slab[xx + nx * yy] = acc;
+                }
+            }
+            // Screening, gathered from the (up to) 8 cells around each screened node.
+            for &(xx, yy) in &self.screened[z] {
+                let (xx, yy) = (xx as usize, yy as usize);
+                let mut acc = 0.0;
+                for cz in z.saturating_sub(1)..=z.min(nz - 2) {
+                    for cy in yy.saturating_sub(1)..=yy.min(ny - 2) {
+                        for cx in xx.saturating_sub(1)..=xx.min(nx - 2) {
+                            let cid = cx + ncx * (cy + ncy * cz);
+                            let (a, b) = (
+                                self.cell_start[cid] as usize,
+                                self.cell_start[cid + 1] as usize,
+                            );
+                            let o = [xx - cx, yy - cy, z - cz];
+                            for (f, sp) in self.frac[a..b].iter().zip(&s[a..b]) {
+                                let w = (if o[0] == 1 { f.x } else { 1.0 - f.x })
+                                    * (if o[1] == 1 { f.y } else { 1.0 - f.y })
+                                    * (if o[2] == 1 { f.z } else { 1.0 - f.z });
+                                acc += w * sp;
                             }
                         }
                     }
-                    slab[xx + nx * yy] = acc;
                 }
+                slab[xx + nx * yy] += acc;
             }
         });
     }
@@ -604,15 +643,13 @@ pub fn screened_poisson(
         values: &chi,
     };
     let mesh = marching_tetrahedra(&field, iso, outside);
-    let dk = params.density_k;
-    let vertex_density: Vec<f32> = mesh
-        .vertices
-        .par_iter()
-        .map(|&v| {
-            let r2 = index.knn(v, dk).last().map(|x| x.1).unwrap_or(0.0);
-            dk.min(points.len()) as f32 / (std::f32::consts::PI * r2.max(min_area))
-        })
-        .collect();
+    let vertex_density = support_density_with(
+        &index,
+        points.len(),
+        &mesh.vertices,
+        params.density_k,
+        min_area,
+    );
     let extract_s = t_ex.elapsed().as_secs_f64();
     Ok(PoissonOutput {
         mesh,
@@ -624,6 +661,46 @@ pub fn screened_poisson(
         solve_s,
         extract_s,
     })
+}
+
+/// Support density of each of `vertices` with respect to the samples `points`: k/(π·r_k²) in
+/// samples per m², r_k the distance to the k-th nearest sample (the density [`trim`] uses;
+/// exposed to score other meshers' output with the same rule).
+///
+/// # Errors
+/// `points` empty or non-finite; `k` = 0.
+pub fn support_density(
+    points: &[Vec3],
+    vertices: &[Vec3],
+    k: usize,
+) -> Result<Vec<f32>, GeometryError> {
+    if k == 0 {
+        return Err(bad("density_k", 0.0, "at least 1"));
+    }
+    let index = PointIndex::new("points", points)?;
+    Ok(support_density_with(
+        &index,
+        points.len(),
+        vertices,
+        k,
+        1e-12,
+    ))
+}
+
+fn support_density_with(
+    index: &PointIndex,
+    n_points: usize,
+    vertices: &[Vec3],
+    k: usize,
+    min_area: f32,
+) -> Vec<f32> {
+    vertices
+        .par_iter()
+        .map(|&v| {
+            let r2 = index.knn(v, k).last().map(|x| x.1).unwrap_or(0.0);
+            k.min(n_points) as f32 / (std::f32::consts::PI * r2.max(min_area))
+        })
+        .collect()
 }
 
 /// How to choose the density below which [`trim`] removes vertices.
