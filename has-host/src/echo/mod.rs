@@ -40,6 +40,12 @@
 //!   pulse taps, amplitudes and the output are `f32` (relative rounding ≈ 1e-7 per term).
 //! * No range ambiguity in (a): a scatterer beyond `c/Δf` is not folded back as it is in (b).
 //!
+//! # Cost
+//! (a) costs one `f64` distance, one table phasor and `2L` complex taps per (scatterer, element):
+//! about 15 M scatterer-element updates per CPU-second with 16 taps (`tests/tests/echo_bench.rs`,
+//! 16 k visible scatterers × 1024 elements, on this shared 2-core machine). Pick
+//! `kernel_half_width_cells` from [`PulseKernel::truncation_error`] (Hann: 8 cells ⇒ 5.5e-4).
+//!
 //! Units: metres, hertz, radians; positions `Vec3` in the scene frame.
 
 mod kernel;

@@ -20,6 +20,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
+use super::kernel::floor_fast;
 use super::{check_pos, EchoConfig, EchoError, PulseKernel, ScattererSet};
 use crate::propagation::{free_space_amplitude, fresnel_reflection};
 use has_dsp::geometry::C_M_PER_S;
@@ -255,7 +256,7 @@ impl EchoSynth {
     #[inline]
     fn carrier_phasor(&self, r: f64) -> Complex32 {
         let cycles = r * self.cfg.fc_hz / C_M_PER_S;
-        let x = (cycles - cycles.floor()) * PHASOR_N as f64;
+        let x = (cycles - floor_fast(cycles)) * PHASOR_N as f64;
         let i = (x as usize).min(PHASOR_N - 1);
         let t = (x - i as f64) as f32;
         let (a, b) = (self.phasor[i], self.phasor[i + 1]);
