@@ -31,6 +31,10 @@ pub enum Material {
     CeilingBoard,
     /// Chipboard.
     Chipboard,
+    /// Plywood.
+    Plywood,
+    /// Marble (Sionna's street-canyon scenes use it).
+    Marble,
     /// Floorboard.
     Floorboard,
     /// Metal (σ = 10⁷ S/m).
@@ -46,7 +50,7 @@ pub enum Material {
 /// `(material, name, a, b, c, d, f_min_ghz, f_max_ghz)`, ITU-R P.2040-3 Table 3.
 type ItuRow = (Material, &'static str, f64, f64, f64, f64, f64, f64);
 
-const ITU_TABLE: [ItuRow; 13] = [
+const ITU_TABLE: [ItuRow; 15] = [
     (Material::Vacuum, "vacuum", 1.0, 0.0, 0.0, 0.0, 0.001, 100.0),
     (
         Material::Concrete,
@@ -108,6 +112,26 @@ const ITU_TABLE: [ItuRow; 13] = [
         0.7800,
         1.0,
         100.0,
+    ),
+    (
+        Material::Plywood,
+        "plywood",
+        2.71,
+        0.0,
+        0.33,
+        0.0,
+        1.0,
+        40.0,
+    ),
+    (
+        Material::Marble,
+        "marble",
+        7.074,
+        0.0,
+        0.0055,
+        0.9262,
+        1.0,
+        60.0,
     ),
     (
         Material::Floorboard,
@@ -225,6 +249,19 @@ mod tests {
         // η'' = 17.98 σ / f_GHz
         let eta = m.complex_permittivity(10e9);
         assert!((eta.im + 17.975 * sigma / 10.0).abs() < 1e-3 * sigma);
+    }
+
+    #[test]
+    fn marble_and_plywood_match_itu_p2040_table3() {
+        // Table 3: marble εr = 7.074, σ = 0.0055·f^0.9262 (1–60 GHz); plywood εr = 2.71,
+        // σ = 0.33 (1–40 GHz).
+        let m = Material::from_name("itu_marble").unwrap();
+        assert_eq!(m.relative_permittivity(10e9), 7.074);
+        assert!((m.conductivity(10e9) - 0.0055 * 10f64.powf(0.9262)).abs() < 1e-15);
+        assert_eq!(m.valid_range_ghz(), (1.0, 60.0));
+        let p = Material::from_name("plywood").unwrap();
+        assert_eq!(p.relative_permittivity(28e9), 2.71);
+        assert_eq!(p.conductivity(28e9), 0.33);
     }
 
     #[test]

@@ -393,6 +393,7 @@ mod tests {
             rays: 10,
             seed: 1,
             json: false,
+            paths_scene: "fixtures/city_block.toml".into(),
         }))
         .unwrap_err();
         assert!(e.to_string().contains("--cells (0)"), "{e}");

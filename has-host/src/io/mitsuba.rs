@@ -422,10 +422,10 @@ mod tests {
             ),
             (
                 format!(
-                    "<scene><bsdf type=\"twosided\" id=\"mat-itu_marble\"/>{}</scene>",
-                    shape("<ref id=\"mat-itu_marble\"/>", "meshes/a.ply")
+                    "<scene><bsdf type=\"twosided\" id=\"mat-itu_cheese\"/>{}</scene>",
+                    shape("<ref id=\"mat-itu_cheese\"/>", "meshes/a.ply")
                 ),
-                "unknown material 'mat-itu_marble'",
+                "unknown material 'mat-itu_cheese'",
             ),
             (
                 format!("<scene>{}</scene>", shape("<ref id=\"nope\"/>", "meshes/a.ply")),
