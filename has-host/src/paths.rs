@@ -98,7 +98,11 @@ pub struct TracerConfig {
 
 impl Default for TracerConfig {
     /// 10 GHz, order 3, line of sight on, vertical polarisation, 200 000 SBR rays, facets within
-    /// 8° and 5 cm.
+    /// 15° and 0.15 m: exact box walls are unaffected, and walls of a mesh made of 2 m
+    /// triangles with vertex noise still cluster into a few facets each (measured on the
+    /// city-block fixture, 78 UEs: 372 paths exact, 372 with ±5 cm noise per axis, 369 with
+    /// ±10 cm). Curved objects faceted finer than 15°
+    /// (cylinders with more than 24 segments) are merged into coarser facets.
     fn default() -> Self {
         TracerConfig {
             frequency_hz: 10e9,
@@ -106,8 +110,8 @@ impl Default for TracerConfig {
             los: true,
             polarization: Polarization::Vertical,
             candidates: CandidateMode::Sbr { rays: 200_000 },
-            facet_angle_tol_rad: 8f64.to_radians(),
-            facet_dist_tol_m: 0.05,
+            facet_angle_tol_rad: 15f64.to_radians(),
+            facet_dist_tol_m: 0.15,
         }
     }
 }
