@@ -11,6 +11,8 @@ mod bench_paths;
 mod bench_raytrace;
 mod mesh_cmd;
 mod paths_cmd;
+mod plot;
+mod reconstruct_cmd;
 mod scene_cmd;
 
 /// Hybrid aperture sensing simulator.
@@ -29,6 +31,9 @@ enum Command {
         #[arg(long, default_value_t = 10.0)]
         freq_ghz: f64,
     },
+    /// Image the scenario (default: the bundled factory) with every base station–terminal pair,
+    /// fuse the point clouds, score them against the true surfaces; write report, PLY and plots.
+    Reconstruct(reconstruct_cmd::ReconstructArgs),
     /// Mesh a point cloud (PLY) by screened Poisson reconstruction; write OBJ (and PLY).
     Mesh(mesh_cmd::MeshArgs),
     /// Inspect a scene file or export it as a mesh (OBJ / PLY) for viewing.
@@ -57,6 +62,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Materials { freq_ghz } => materials(freq_ghz),
         Command::Mesh(a) => mesh_cmd::run(a),
+        Command::Reconstruct(a) => reconstruct_cmd::run(a),
         Command::Scene { cmd } => scene_cmd::run(cmd),
         Command::Bench { cmd } => bench_raytrace::run(cmd),
         Command::Paths(args) => paths_cmd::run(args),

@@ -1,6 +1,12 @@
-//! Hybrid-aperture imaging: sensors (real and virtual apertures), the frame-by-frame driver that
-//! feeds has-dsp back-projection, point-cloud extraction and fusion.
+//! Hybrid-aperture imaging: the scenario, sensors (real and virtual apertures), the frame-by-frame
+//! driver that feeds has-dsp back-projection, pair planning, point-cloud extraction and fusion.
 
+pub mod config;
+pub mod driver;
+pub mod run;
 pub mod sensors;
 
+pub use config::{ImagingScenario, ScenarioError};
+pub use driver::{image_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions};
+pub use run::{build_world, fuse, plan_pairs, run_imaging, FusedCloud, RunError, RunResult, World};
 pub use sensors::{nyquist_spacing_m, pair_resolution_m, PlanarArray, VirtualAperture};

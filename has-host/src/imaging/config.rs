@@ -1,0 +1,590 @@
+//! The imaging scenario file: the scene, the radio, the base stations, the terminals' virtual
+//! apertures and the imaging parameters, in one TOML document (format in `docs/scenario.md`).
+//!
+//! Every table denies unknown fields, so a typo is an error naming the field; every numeric field
+//! is checked ([`ImagingScenario::validate`]) and a bad one is reported with its name and value.
+//! Units: lengths metres, frequencies GHz/MHz as named, angles degrees in the file (radians
+//! inside), decibels as named. A `[quick]` table may override imaging parameters for the
+//! `--quick` preset.
+
+use std::path::{Path, PathBuf};
+
+use glam::Vec3;
+use serde::{Deserialize, Serialize};
+
+use super::sensors::{PlanarArray, VirtualAperture};
+use crate::scenario::SceneSpec;
+
+/// The whole scenario file.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImagingScenario {
+    /// Free text shown in reports.
+    #[serde(default)]
+    pub description: String,
+    /// The environment (see `crate::scenario`).
+    pub scene: SceneSpec,
+    /// The OFDM radio shared by every terminal and base station.
+    pub radar: RadarSpec,
+    /// The receiving base stations.
+    pub base_stations: Vec<BaseStationSpec>,
+    /// The terminals' virtual apertures.
+    pub apertures: Vec<ApertureSpec>,
+    /// Explicit (base station, aperture) pairs; empty: for each aperture the base station that
+    /// sees most of the imaging region together with it (see `imaging::plan`).
+    #[serde(default)]
+    pub pairs: Vec<PairSpec>,
+    /// Imaging parameters (the default preset).
+    pub imaging: ImagingSpec,
+    /// Overrides of `imaging` for `--quick`.
+    #[serde(default)]
+    pub quick: ImagingOverrides,
+    /// Directory of the scenario file (mesh paths resolve against it).
+    #[serde(skip)]
+    pub base_dir: PathBuf,
+}
+
+/// `[radar]`: the OFDM waveform.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RadarSpec {
+    /// Carrier frequency, GHz.
+    pub fc_ghz: f64,
+    /// Occupied bandwidth, MHz.
+    pub bandwidth_mhz: f64,
+    /// Subcarriers per OFDM symbol (power of two, 64 … 4096). Default 1024: the unambiguous path
+    /// length `n·c/B` (768 m at 400 MHz) then exceeds every path of the scene.
+    #[serde(default = "default_subcarriers")]
+    pub subcarriers: usize,
+    /// Range-compression zero padding (1, 2 or 4). Default 2.
+    #[serde(default = "default_zero_pad")]
+    pub zero_pad: usize,
+    /// Range-compression window across subcarriers: `"rectangular"`, `"hann"` or
+    /// `"taylor"` (n̄ = 4, −35 dB). Default `"hann"`.
+    #[serde(default = "default_window")]
+    pub window: String,
+    /// Per-bin signal-to-noise ratio of the range-compressed profiles before back-projection, dB,
+    /// relative to the mean echo power per bin of an aperture's first frame. Default 10 dB.
+    #[serde(default = "default_snr")]
+    pub snr_db: f64,
+}
+
+/// `[[base_stations]]`: a vertical 2-D array receiving.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BaseStationSpec {
+    /// Unique name (e.g. `"BS1"`).
+    pub name: String,
+    /// Panel centre `[x, y, z]`, metres.
+    pub position: [f32; 3],
+    /// Boresight azimuth, degrees from +x toward +y (the panel normal is horizontal).
+    pub boresight_deg: f32,
+    /// Element rows. Default 32.
+    #[serde(default = "default_32")]
+    pub rows: usize,
+    /// Element columns. Default 32.
+    #[serde(default = "default_32")]
+    pub cols: usize,
+    /// Panel width, metres. Default 1.0.
+    #[serde(default = "default_width")]
+    pub width_m: f32,
+    /// Panel height, metres. Default 0.5.
+    #[serde(default = "default_height")]
+    pub height_m: f32,
+}
+
+/// `[[apertures]]`: a terminal transmitting along a straight track.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ApertureSpec {
+    /// Unique name (e.g. `"V1"`, `"UAV"`).
+    pub name: String,
+    /// `"vehicle"` or `"uav"` (reports only).
+    pub kind: String,
+    /// First transmit position `[x, y, z]`, metres.
+    pub start: [f32; 3],
+    /// Last transmit position `[x, y, z]`, metres.
+    pub end: [f32; 3],
+    /// Transmit positions along the track (≥ 2). Default: Nyquist for the imaging region (see
+    /// [`super::sensors::nyquist_spacing_m`]), computed by the planner.
+    #[serde(default)]
+    pub positions: Option<usize>,
+}
+
+/// `[[pairs]]`: one explicit imaging pair.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PairSpec {
+    /// Base-station name.
+    pub bs: String,
+    /// Aperture name.
+    pub aperture: String,
+}
+
+/// `[imaging]`: the voxel grid, the scatterer model, thresholds and ground truth.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImagingSpec {
+    /// Imaging region, lower corner `[x, y, z]`, metres.
+    pub region_min: [f32; 3],
+    /// Imaging region, upper corner `[x, y, z]`, metres.
+    pub region_max: [f32; 3],
+    /// Fine voxel size, metres.
+    pub voxel_m: f32,
+    /// Coarse voxel size of the first (masking) pass, metres.
+    pub coarse_voxel_m: f32,
+    /// Coarse-pass mask threshold, dB relative to the coarse image's peak (negative).
+    pub coarse_threshold_db: f32,
+    /// Point threshold, dB relative to the pair's fine image peak (negative).
+    pub threshold_db: f32,
+    /// Keep only voxels that are local maxima along the bistatic range direction.
+    #[serde(default = "default_true")]
+    pub local_max: bool,
+    /// Use every n-th element of each array in both directions (1: all).
+    #[serde(default = "default_one")]
+    pub element_step: usize,
+    /// Use every n-th transmit position of each aperture (1: all).
+    #[serde(default = "default_one")]
+    pub position_step: usize,
+    /// Coarse pass: additionally use every n-th element and position of those.
+    #[serde(default = "default_coarse_step")]
+    pub coarse_step: usize,
+    /// Surface scatterers per m² on every object except those listed in `ground_objects`.
+    pub scatterer_density_per_m2: f64,
+    /// Objects treated as ground (clutter, not imaged as the target).
+    #[serde(default)]
+    pub ground_objects: Vec<String>,
+    /// Scatterers per m² on ground objects; only inside the imaging region's footprint grown by
+    /// `ground_margin_m`.
+    #[serde(default = "default_ground_density")]
+    pub ground_density_per_m2: f64,
+    /// Margin around the region's footprint where ground scatters, metres.
+    #[serde(default = "default_ground_margin")]
+    pub ground_margin_m: f32,
+    /// Objects whose surfaces are the ground truth (the building).
+    pub truth_objects: Vec<String>,
+    /// Ground-truth samples per m² on the truth objects' surfaces.
+    #[serde(default = "default_truth_density")]
+    pub truth_density_per_m2: f64,
+    /// Aperture positions across which one visibility list is shared, metres.
+    #[serde(default = "default_vis_shift")]
+    pub visibility_shift_m: f32,
+    /// Fusion: keep a fused point when its weighted support reaches this fraction of the
+    /// strongest point's (0 keeps all).
+    #[serde(default = "default_fusion_min")]
+    pub fusion_min_weight: f32,
+    /// Seed of the scatterer sampling and the noise.
+    #[serde(default = "default_one_u64")]
+    pub seed: u64,
+}
+
+/// `[quick]`: fields of `[imaging]` replaced by the `--quick` preset (all optional).
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImagingOverrides {
+    /// See [`ImagingSpec::voxel_m`].
+    pub voxel_m: Option<f32>,
+    /// See [`ImagingSpec::coarse_voxel_m`].
+    pub coarse_voxel_m: Option<f32>,
+    /// See [`ImagingSpec::element_step`].
+    pub element_step: Option<usize>,
+    /// See [`ImagingSpec::position_step`].
+    pub position_step: Option<usize>,
+    /// See [`ImagingSpec::coarse_step`].
+    pub coarse_step: Option<usize>,
+    /// See [`ImagingSpec::scatterer_density_per_m2`].
+    pub scatterer_density_per_m2: Option<f64>,
+    /// See [`ImagingSpec::threshold_db`].
+    pub threshold_db: Option<f32>,
+    /// See [`ImagingSpec::truth_density_per_m2`].
+    pub truth_density_per_m2: Option<f64>,
+}
+
+fn default_subcarriers() -> usize {
+    1024
+}
+fn default_zero_pad() -> usize {
+    2
+}
+fn default_window() -> String {
+    "hann".into()
+}
+fn default_snr() -> f64 {
+    10.0
+}
+fn default_32() -> usize {
+    32
+}
+fn default_width() -> f32 {
+    1.0
+}
+fn default_height() -> f32 {
+    0.5
+}
+fn default_true() -> bool {
+    true
+}
+fn default_one() -> usize {
+    1
+}
+fn default_one_u64() -> u64 {
+    1
+}
+fn default_coarse_step() -> usize {
+    2
+}
+fn default_ground_density() -> f64 {
+    2.0
+}
+fn default_ground_margin() -> f32 {
+    10.0
+}
+fn default_truth_density() -> f64 {
+    16.0
+}
+fn default_vis_shift() -> f32 {
+    0.5
+}
+fn default_fusion_min() -> f32 {
+    0.0
+}
+
+/// Why a scenario could not be used.
+#[derive(Debug, thiserror::Error)]
+pub enum ScenarioError {
+    /// The file could not be read.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The OS error.
+        source: std::io::Error,
+    },
+    /// Malformed TOML or a field that does not match the format (the message names it).
+    #[error("{path}: {msg}")]
+    Toml {
+        /// The file.
+        path: PathBuf,
+        /// The parser's message.
+        msg: String,
+    },
+    /// A field with a bad value.
+    #[error("{field}: {value} ({expected})")]
+    Invalid {
+        /// The field, e.g. `imaging.voxel_m` or `base_stations[2].position`.
+        field: String,
+        /// The value given.
+        value: String,
+        /// What was expected.
+        expected: &'static str,
+    },
+}
+
+fn invalid(
+    field: impl Into<String>,
+    value: impl std::fmt::Debug,
+    expected: &'static str,
+) -> ScenarioError {
+    ScenarioError::Invalid {
+        field: field.into(),
+        value: format!("{value:?}"),
+        expected,
+    }
+}
+
+fn check_pos3(field: String, v: [f32; 3]) -> Result<(), ScenarioError> {
+    if v.iter().all(|x| x.is_finite()) {
+        Ok(())
+    } else {
+        Err(invalid(field, v, "finite coordinates"))
+    }
+}
+
+fn check_positive(field: &str, v: f64) -> Result<(), ScenarioError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(field, v, "finite and > 0"))
+    }
+}
+
+impl ImagingScenario {
+    /// Reads and validates a scenario file.
+    ///
+    /// # Errors
+    /// [`ScenarioError`] naming the file, field and value.
+    pub fn load(path: &Path) -> Result<ImagingScenario, ScenarioError> {
+        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
+            path: path.to_path_buf(),
+            source: e,
+        })?;
+        let mut s = Self::from_toml_str(&text).map_err(|e| match e {
+            ScenarioError::Toml { msg, .. } => ScenarioError::Toml {
+                path: path.to_path_buf(),
+                msg,
+            },
+            other => other,
+        })?;
+        let dir = path
+            .parent()
+            .filter(|p| !p.as_os_str().is_empty())
+            .unwrap_or(Path::new("."))
+            .to_path_buf();
+        s.scene.set_base_dir(dir.clone());
+        s.base_dir = dir;
+        Ok(s)
+    }
+
+    /// Parses and validates TOML text (mesh paths resolve against `.`).
+    ///
+    /// # Errors
+    /// As [`ImagingScenario::load`].
+    pub fn from_toml_str(text: &str) -> Result<ImagingScenario, ScenarioError> {
+        let mut s: ImagingScenario = toml::from_str(text).map_err(|e| ScenarioError::Toml {
+            path: PathBuf::from("<string>"),
+            msg: e.to_string().trim_end().to_string(),
+        })?;
+        s.scene.set_base_dir(".");
+        s.base_dir = PathBuf::from(".");
+        s.validate()?;
+        Ok(s)
+    }
+
+    /// Applies the `[quick]` overrides to `imaging`.
+    pub fn apply_quick(&mut self) {
+        let q = self.quick.clone();
+        let im = &mut self.imaging;
+        if let Some(v) = q.voxel_m {
+            im.voxel_m = v;
+        }
+        if let Some(v) = q.coarse_voxel_m {
+            im.coarse_voxel_m = v;
+        }
+        if let Some(v) = q.element_step {
+            im.element_step = v;
+        }
+        if let Some(v) = q.position_step {
+            im.position_step = v;
+        }
+        if let Some(v) = q.coarse_step {
+            im.coarse_step = v;
+        }
+        if let Some(v) = q.scatterer_density_per_m2 {
+            im.scatterer_density_per_m2 = v;
+        }
+        if let Some(v) = q.threshold_db {
+            im.threshold_db = v;
+        }
+        if let Some(v) = q.truth_density_per_m2 {
+            im.truth_density_per_m2 = v;
+        }
+    }
+
+    /// Checks every value (names the first bad field).
+    ///
+    /// # Errors
+    /// [`ScenarioError::Invalid`].
+    pub fn validate(&self) -> Result<(), ScenarioError> {
+        let r = &self.radar;
+        check_positive("radar.fc_ghz", r.fc_ghz)?;
+        check_positive("radar.bandwidth_mhz", r.bandwidth_mhz)?;
+        if r.bandwidth_mhz * 1e6 >= r.fc_ghz * 1e9 {
+            return Err(invalid(
+                "radar.bandwidth_mhz",
+                r.bandwidth_mhz,
+                "below the carrier",
+            ));
+        }
+        if !(r.subcarriers.is_power_of_two() && (64..=4096).contains(&r.subcarriers)) {
+            return Err(invalid(
+                "radar.subcarriers",
+                r.subcarriers,
+                "a power of two, 64 … 4096",
+            ));
+        }
+        if !matches!(r.zero_pad, 1 | 2 | 4) || r.subcarriers * r.zero_pad > 4096 {
+            return Err(invalid(
+                "radar.zero_pad",
+                r.zero_pad,
+                "1, 2 or 4, with subcarriers·zero_pad ≤ 4096",
+            ));
+        }
+        self.window()?;
+        if !r.snr_db.is_finite() {
+            return Err(invalid("radar.snr_db", r.snr_db, "finite"));
+        }
+        if self.base_stations.is_empty() {
+            return Err(invalid("base_stations", "[]", "at least one base station"));
+        }
+        for (i, b) in self.base_stations.iter().enumerate() {
+            check_pos3(format!("base_stations[{i}].position"), b.position)?;
+            if !b.boresight_deg.is_finite() {
+                return Err(invalid(
+                    format!("base_stations[{i}].boresight_deg"),
+                    b.boresight_deg,
+                    "finite",
+                ));
+            }
+            if b.rows == 0 || b.cols == 0 {
+                return Err(invalid(
+                    format!("base_stations[{i}].rows/cols"),
+                    (b.rows, b.cols),
+                    "≥ 1",
+                ));
+            }
+            check_positive(&format!("base_stations[{i}].width_m"), b.width_m as f64)?;
+            check_positive(&format!("base_stations[{i}].height_m"), b.height_m as f64)?;
+        }
+        if self.apertures.is_empty() {
+            return Err(invalid("apertures", "[]", "at least one aperture"));
+        }
+        for (i, a) in self.apertures.iter().enumerate() {
+            check_pos3(format!("apertures[{i}].start"), a.start)?;
+            check_pos3(format!("apertures[{i}].end"), a.end)?;
+            if let Some(n) = a.positions {
+                if n < 2 {
+                    return Err(invalid(format!("apertures[{i}].positions"), n, "≥ 2"));
+                }
+            }
+        }
+        for (i, p) in self.pairs.iter().enumerate() {
+            if !self.base_stations.iter().any(|b| b.name == p.bs) {
+                return Err(invalid(
+                    format!("pairs[{i}].bs"),
+                    &p.bs,
+                    "the name of a base station",
+                ));
+            }
+            if !self.apertures.iter().any(|a| a.name == p.aperture) {
+                return Err(invalid(
+                    format!("pairs[{i}].aperture"),
+                    &p.aperture,
+                    "the name of an aperture",
+                ));
+            }
+        }
+        let im = &self.imaging;
+        check_pos3("imaging.region_min".into(), im.region_min)?;
+        check_pos3("imaging.region_max".into(), im.region_max)?;
+        for k in 0..3 {
+            if im.region_max[k] <= im.region_min[k] {
+                return Err(invalid(
+                    "imaging.region_max",
+                    im.region_max,
+                    "above region_min on every axis",
+                ));
+            }
+        }
+        check_positive("imaging.voxel_m", im.voxel_m as f64)?;
+        check_positive("imaging.coarse_voxel_m", im.coarse_voxel_m as f64)?;
+        for (f, v) in [
+            ("imaging.coarse_threshold_db", im.coarse_threshold_db),
+            ("imaging.threshold_db", im.threshold_db),
+        ] {
+            if !(v.is_finite() && v <= 0.0) {
+                return Err(invalid(f, v, "finite and ≤ 0 dB"));
+            }
+        }
+        for (f, v) in [
+            ("imaging.element_step", im.element_step),
+            ("imaging.position_step", im.position_step),
+            ("imaging.coarse_step", im.coarse_step),
+        ] {
+            if v == 0 {
+                return Err(invalid(f, v, "≥ 1"));
+            }
+        }
+        check_positive(
+            "imaging.scatterer_density_per_m2",
+            im.scatterer_density_per_m2,
+        )?;
+        check_positive("imaging.ground_density_per_m2", im.ground_density_per_m2)?;
+        check_positive("imaging.truth_density_per_m2", im.truth_density_per_m2)?;
+        if !(im.ground_margin_m.is_finite() && im.ground_margin_m >= 0.0) {
+            return Err(invalid(
+                "imaging.ground_margin_m",
+                im.ground_margin_m,
+                "finite and ≥ 0",
+            ));
+        }
+        if !(im.visibility_shift_m.is_finite() && im.visibility_shift_m >= 0.0) {
+            return Err(invalid(
+                "imaging.visibility_shift_m",
+                im.visibility_shift_m,
+                "finite and ≥ 0",
+            ));
+        }
+        if !(0.0..=1.0).contains(&im.fusion_min_weight) {
+            return Err(invalid(
+                "imaging.fusion_min_weight",
+                im.fusion_min_weight,
+                "in [0, 1]",
+            ));
+        }
+        if im.truth_objects.is_empty() {
+            return Err(invalid(
+                "imaging.truth_objects",
+                "[]",
+                "at least one object name",
+            ));
+        }
+        Ok(())
+    }
+
+    /// The range-compression window.
+    ///
+    /// # Errors
+    /// [`ScenarioError::Invalid`] for an unknown window name.
+    pub fn window(&self) -> Result<has_dsp::window::Window, ScenarioError> {
+        use has_dsp::window::Window;
+        match self.radar.window.to_ascii_lowercase().as_str() {
+            "rectangular" | "rect" => Ok(Window::Rectangular),
+            "hann" => Ok(Window::Hann),
+            "taylor" => Ok(Window::Taylor {
+                nbar: 4,
+                sll_db: -35.0,
+            }),
+            _ => Err(invalid(
+                "radar.window",
+                &self.radar.window,
+                "rectangular, hann or taylor",
+            )),
+        }
+    }
+
+    /// Carrier wavelength, metres.
+    pub fn wavelength_m(&self) -> f64 {
+        crate::wavelength_m(self.radar.fc_ghz * 1e9)
+    }
+
+    /// The base station `i` as a [`PlanarArray`].
+    pub fn array(&self, i: usize) -> PlanarArray {
+        let b = &self.base_stations[i];
+        PlanarArray {
+            centre: Vec3::from(b.position),
+            boresight_az_rad: b.boresight_deg.to_radians(),
+            rows: b.rows,
+            cols: b.cols,
+            width_m: b.width_m,
+            height_m: b.height_m,
+        }
+    }
+
+    /// Aperture `i` with `positions` transmit positions.
+    pub fn aperture(&self, i: usize, positions: usize) -> VirtualAperture {
+        let a = &self.apertures[i];
+        VirtualAperture {
+            start: Vec3::from(a.start),
+            end: Vec3::from(a.end),
+            positions,
+        }
+    }
+
+    /// The imaging region `(min, max)`.
+    pub fn region(&self) -> (Vec3, Vec3) {
+        (
+            Vec3::from(self.imaging.region_min),
+            Vec3::from(self.imaging.region_max),
+        )
+    }
+}

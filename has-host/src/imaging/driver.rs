@@ -1,0 +1,677 @@
+//! The imaging driver: for one base station–terminal pair, synthesise each frame (one transmit
+//! position, every receive element), and push it through has-dsp back-projection exactly as
+//! firmware would — one snapshot at a time, every active voxel updated, the snapshot discarded.
+//!
+//! Two passes keep the work proportional to the surfaces rather than to the whole volume:
+//!
+//! 1. **Coarse pass**: the region on a coarse grid (`imaging.coarse_voxel_m`) from a thinned data
+//!    set (every `coarse_step`-th element and position); voxels within `coarse_threshold_db` of the
+//!    coarse peak, dilated by one coarse voxel, form the mask.
+//! 2. **Fine pass**: the region on the fine grid (`imaging.voxel_m`), cut into bricks of
+//!    [`BRICK`]³ voxels; only bricks that touch the mask are imaged, each its own has-dsp voxel grid
+//!    (positions relative to the brick origin, so `f32` keeps phase accuracy), all bricks updated
+//!    in parallel (rayon) from the same snapshot.
+//!
+//! Profiles are the range-compressed echoes of [`crate::echo`] (path (a): the exact pulse of
+//! has-dsp range compression, tabulated), or with `raw_ofdm` the raw subcarriers of path (b) pushed
+//! through [`has_dsp::range::RangeCompressor`] frame by frame. Complex white Gaussian noise is added
+//! to the profiles at `radar.snr_db` per bin (relative to the mean echo power per bin of the pair's
+//! first frame); with `raw_ofdm` the same SNR is set per subcarrier before compression.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use has_dsp::bp::{
+    AccF32, AccQ15, Backprojector, BpConfig, Interp, PhaseEval, Snapshot, VoxelGrid,
+};
+use has_dsp::fixed::{cq15_block_from_c32, CQ15};
+use has_dsp::range::{RangeCompressor, RangeConfig, RangeMode};
+use num_complex::Complex32;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, StandardNormal};
+use rayon::prelude::*;
+
+use super::config::ImagingScenario;
+use super::sensors::{PlanarArray, VirtualAperture};
+use crate::echo::{EchoConfig, EchoError, EchoSynth, Noise, ScattererSet, VisibilityCache};
+use crate::scene::Scene;
+
+/// Fine voxels per brick side.
+pub const BRICK: usize = 8;
+
+/// Why imaging failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ImagingError {
+    /// A has-dsp kernel refused its input.
+    #[error("has-dsp: {0}")]
+    Dsp(#[from] has_dsp::DspError),
+    /// Echo synthesis refused its input.
+    #[error("echo synthesis: {0}")]
+    Echo(#[from] EchoError),
+    /// A scenario value that the driver cannot use.
+    #[error("{0}")]
+    Scenario(#[from] super::config::ScenarioError),
+}
+
+/// Options of a run that are not part of the scenario.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct RunOptions {
+    /// Q15 profiles and the fixed-point back-projection path instead of `f32`.
+    pub fixed_point: bool,
+    /// Raw OFDM subcarriers through has-dsp range compression instead of direct profiles.
+    pub raw_ofdm: bool,
+}
+
+/// One imaging pair as planned.
+#[derive(Clone, Debug)]
+pub struct PairPlan {
+    /// `"BS1-V1"`.
+    pub name: String,
+    /// Base-station index.
+    pub bs: usize,
+    /// Aperture index.
+    pub aperture: usize,
+    /// Transmit positions of the aperture (before `position_step`).
+    pub positions: usize,
+    /// Area (m²) of scatterers inside the imaging region that see both the aperture centre and
+    /// the array centre: the pair's geometric coverage.
+    pub coverage_m2: f64,
+}
+
+/// The image of one pair, as points.
+#[derive(Clone, Debug, Default)]
+pub struct PairImage {
+    /// Voxel positions above threshold, metres.
+    pub points: Vec<Vec3>,
+    /// `|I|` of each point relative to the pair's peak (0 … 1].
+    pub intensity: Vec<f32>,
+    /// Work and timing.
+    pub stats: PairStats,
+}
+
+/// Work done for one pair.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct PairStats {
+    /// Frames (transmit positions) pushed in the fine pass.
+    pub frames: usize,
+    /// Receive elements per frame.
+    pub elements: usize,
+    /// Bins per profile.
+    pub profile_bins: usize,
+    /// Visible scatterers (first frame).
+    pub visible_scatterers: usize,
+    /// Coarse-pass voxels.
+    pub coarse_voxels: usize,
+    /// Fine voxels imaged (active bricks).
+    pub fine_voxels: usize,
+    /// Fine voxels of the whole region.
+    pub region_voxels: usize,
+    /// Voxel × profile updates of both passes.
+    pub backprojections: f64,
+    /// Seconds spent synthesising echoes.
+    pub synth_s: f64,
+    /// Seconds spent in back-projection.
+    pub bp_s: f64,
+    /// Pulse-table error bound of the echo synthesis (relative to the peak).
+    pub pulse_error: f32,
+}
+
+/// Per-pair constants derived from the scenario.
+struct PairGeometry {
+    array: PlanarArray,
+    aperture: VirtualAperture,
+    r0_m: f64,
+    dr_m: f64,
+    n_bins: usize,
+}
+
+fn pair_geometry(sc: &ImagingScenario, plan: &PairPlan) -> PairGeometry {
+    let array = sc.array(plan.bs);
+    let aperture = sc.aperture(plan.aperture, plan.positions);
+    let (lo, hi) = sc.region();
+    let dr =
+        has_dsp::geometry::C_M_PER_S / (sc.radar.bandwidth_mhz * 1e6 * sc.radar.zero_pad as f64);
+    // Bistatic range is convex in the point, so over the box its maximum is at a corner; its
+    // minimum is bounded below by the distances to the box. Margins cover the array's and the
+    // aperture's extent and the pulse's tails.
+    let clamp = |p: Vec3| p.clamp(lo, hi);
+    let half_array = 0.5 * (array.width_m.hypot(array.height_m));
+    let mut rmin = f64::INFINITY;
+    let mut rmax = 0.0f64;
+    for tx in [aperture.start, aperture.end] {
+        let r = (clamp(tx).distance(tx) + clamp(array.centre).distance(array.centre)) as f64;
+        rmin = rmin.min(r - 0.5 * aperture.length_m() as f64 - half_array as f64);
+        for i in 0..8 {
+            let c = Vec3::new(
+                if i & 1 == 0 { lo.x } else { hi.x },
+                if i & 2 == 0 { lo.y } else { hi.y },
+                if i & 4 == 0 { lo.z } else { hi.z },
+            );
+            rmax = rmax.max(has_dsp::geometry::bistatic_range(c, tx, array.centre) as f64);
+        }
+    }
+    rmax += half_array as f64;
+    let margin = 4.0 * dr;
+    let i0 = ((rmin - margin) / dr).floor().max(0.0);
+    let n_bins = (((rmax + margin) / dr).ceil() - i0).max(1.0) as usize;
+    PairGeometry {
+        array,
+        aperture,
+        r0_m: i0 * dr,
+        dr_m: dr,
+        n_bins,
+    }
+}
+
+/// Adds complex white Gaussian noise of power `var` to `rows` (one row per element), seeded per
+/// (seed, frame, element) so the result does not depend on thread scheduling.
+fn add_noise(rows: &mut [Complex32], row_len: usize, var: f64, seed: u64, frame: usize) {
+    if var <= 0.0 {
+        return;
+    }
+    let sd = (var / 2.0).sqrt();
+    rows.par_chunks_mut(row_len)
+        .enumerate()
+        .for_each(|(e, row)| {
+            let mut rng = ChaCha8Rng::seed_from_u64(
+                seed ^ (frame as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ ((e as u64) << 40),
+            );
+            for z in row {
+                let re: f64 = StandardNormal.sample(&mut rng);
+                let im: f64 = StandardNormal.sample(&mut rng);
+                *z += Complex32::new((re * sd) as f32, (im * sd) as f32);
+            }
+        });
+}
+
+/// Produces the range-compressed frames of one pair.
+struct FrameSource<'a> {
+    scene: &'a Scene,
+    set: &'a ScattererSet,
+    synth: EchoSynth,
+    array_centre: Vec3,
+    cache: VisibilityCache,
+    noise_var: Option<f64>,
+    snr_db: f64,
+    seed: u64,
+    raw: Option<RawOfdm>,
+    synth_s: f64,
+    first_visible: usize,
+}
+
+struct RawOfdm {
+    rc: RangeCompressor,
+    symbols: Vec<Complex32>,
+    reference: Vec<Complex32>,
+    first_bin: usize,
+}
+
+impl FrameSource<'_> {
+    /// Fills `out` (`rx.len() × n_bins`) with the profiles of transmit position `tx`, frame `f`.
+    fn frame(
+        &mut self,
+        f: usize,
+        tx: Vec3,
+        rx: &[Vec3],
+        out: &mut [Complex32],
+    ) -> Result<(), ImagingError> {
+        let t = Instant::now();
+        let visible = self
+            .cache
+            .get(self.set, self.scene, tx, self.array_centre)?;
+        if self.first_visible == 0 {
+            self.first_visible = visible.len();
+        }
+        let n_bins = self.synth.config().n_bins;
+        match &self.raw {
+            None => {
+                self.synth.synth_profiles(self.set, visible, tx, rx, out)?;
+                let var = match self.noise_var {
+                    Some(v) => v,
+                    None => {
+                        let p = out.iter().map(|z| z.norm_sqr() as f64).sum::<f64>()
+                            / out.len().max(1) as f64;
+                        let v = p / 10f64.powf(self.snr_db / 10.0);
+                        self.noise_var = Some(v);
+                        v
+                    }
+                };
+                add_noise(out, n_bins, var, self.seed, f);
+            }
+            Some(raw) => {
+                let n = raw.symbols.len();
+                let mut y = vec![Complex32::new(0.0, 0.0); rx.len() * n];
+                self.synth.synth_ofdm(
+                    self.set,
+                    visible,
+                    tx,
+                    rx,
+                    &raw.symbols,
+                    Noise::SnrDb(self.snr_db),
+                    self.seed ^ f as u64,
+                    &mut y,
+                )?;
+                let len = raw.rc.profile_len();
+                out.par_chunks_mut(n_bins)
+                    .zip(y.par_chunks(n))
+                    .try_for_each(|(row, ye)| -> Result<(), has_dsp::DspError> {
+                        let mut prof = vec![Complex32::new(0.0, 0.0); len];
+                        raw.rc.compress(ye, &raw.reference, &mut prof)?;
+                        for (i, z) in row.iter_mut().enumerate() {
+                            *z = prof[(raw.first_bin + i) % len];
+                        }
+                        Ok(())
+                    })?;
+            }
+        }
+        self.synth_s += t.elapsed().as_secs_f64();
+        Ok(())
+    }
+}
+
+/// One brick of the fine grid: its has-dsp configuration and receive elements in its frame.
+struct Brick {
+    bp: Backprojector,
+    rx_local: Vec<Vec3>,
+    offset: usize,
+}
+
+enum Accs<'a> {
+    F32(Vec<AccF32<'a>>),
+    Q15(Vec<AccQ15<'a>>),
+}
+
+/// Images one pair; `progress(done, total)` is called after every frame of both passes.
+///
+/// # Errors
+/// [`ImagingError`] from has-dsp or echo synthesis (bad geometry, lengths).
+pub fn image_pair(
+    sc: &ImagingScenario,
+    scene: &Scene,
+    set: &ScattererSet,
+    plan: &PairPlan,
+    opts: RunOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<PairImage, ImagingError> {
+    let im = &sc.imaging;
+    let geo = pair_geometry(sc, plan);
+    let (lo, hi) = sc.region();
+    let lambda = sc.wavelength_m();
+    let window = sc.window()?;
+    let n_sc = sc.radar.subcarriers;
+    let mut w = vec![0.0f32; n_sc];
+    window.fill_f32(&mut w)?;
+    let echo_cfg = EchoConfig {
+        fc_hz: sc.radar.fc_ghz * 1e9,
+        bandwidth_hz: sc.radar.bandwidth_mhz * 1e6,
+        n_subcarriers: n_sc,
+        zero_pad: sc.radar.zero_pad,
+        window: w,
+        r0_m: geo.r0_m,
+        n_bins: geo.n_bins,
+        kernel_half_width_cells: if matches!(window, has_dsp::window::Window::Rectangular) {
+            16
+        } else {
+            6
+        },
+        kernel_oversample: 64,
+    };
+    let synth = EchoSynth::new(echo_cfg)?;
+    let raw = if opts.raw_ofdm {
+        let rc = RangeCompressor::new(RangeConfig {
+            n_subcarriers: n_sc,
+            bandwidth_hz: sc.radar.bandwidth_mhz * 1e6,
+            zero_pad: sc.radar.zero_pad,
+            mode: RangeMode::Matched,
+            window,
+            q15_scaling: Default::default(),
+        })?;
+        let symbols = crate::echo::qpsk_symbols(n_sc, im.seed);
+        let mut reference = vec![Complex32::new(0.0, 0.0); n_sc];
+        rc.prepare_reference(&symbols, &mut reference)?;
+        Some(RawOfdm {
+            rc,
+            symbols,
+            reference,
+            first_bin: (geo.r0_m / geo.dr_m).round() as usize,
+        })
+    } else {
+        None
+    };
+    let mut src = FrameSource {
+        scene,
+        set,
+        synth,
+        array_centre: geo.array.centre,
+        cache: VisibilityCache::new(im.visibility_shift_m),
+        noise_var: None,
+        snr_db: sc.radar.snr_db,
+        seed: im.seed ^ ((plan.bs as u64) << 32) ^ ((plan.aperture as u64) << 48),
+        raw,
+        synth_s: 0.0,
+        first_visible: 0,
+    };
+    let pulse_error = src.synth.kernel().error_bound();
+
+    let rx_fine = geo.array.elements(im.element_step);
+    let tx_fine = geo.aperture.positions(im.position_step);
+    let rx_coarse = geo.array.elements(im.element_step * im.coarse_step);
+    let tx_coarse = geo.aperture.positions(im.position_step * im.coarse_step);
+    let total = (tx_fine.len() + tx_coarse.len()) as u64;
+    let mut done = 0u64;
+    let mut stats = PairStats {
+        frames: tx_fine.len(),
+        elements: rx_fine.len(),
+        profile_bins: geo.n_bins,
+        pulse_error,
+        ..PairStats::default()
+    };
+    let bp_cfg = |grid: VoxelGrid| BpConfig {
+        grid,
+        wavelength_m: lambda as f32,
+        r0_m: geo.r0_m as f32,
+        dr_m: geo.dr_m as f32,
+        interp: Interp::Linear,
+        phase: PhaseEval::Poly,
+    };
+
+    // ---- Coarse pass: the mask.
+    let cv = im.coarse_voxel_m;
+    let cdims = dims_of(lo, hi, cv);
+    let cgrid = VoxelGrid {
+        origin: lo,
+        spacing: Vec3::splat(cv),
+        dims: cdims,
+    };
+    let cbp = Backprojector::new(bp_cfg(cgrid))?;
+    let mut cimg = vec![Complex32::new(0.0, 0.0); cbp.voxels()];
+    let rx_c_local: Vec<Vec3> = rx_coarse.iter().map(|&p| cgrid.local(p)).collect();
+    let mut prof = vec![Complex32::new(0.0, 0.0); rx_coarse.len() * geo.n_bins];
+    let tile = cimg.len().div_ceil(rayon::current_num_threads() * 4).max(1);
+    {
+        let mut accs = cimg
+            .chunks_mut(tile)
+            .enumerate()
+            .map(|(i, c)| AccF32::tile(&cbp, i * tile, c))
+            .collect::<Result<Vec<_>, _>>()?;
+        for (f, &tx) in tx_coarse.iter().enumerate() {
+            src.frame(usize::MAX - f, tx, &rx_coarse, &mut prof)?;
+            let t = Instant::now();
+            let snap = Snapshot {
+                tx: cgrid.local(tx),
+                rx: &rx_c_local,
+                profiles: &prof,
+                profile_len: geo.n_bins,
+            };
+            accs.par_iter_mut()
+                .try_for_each(|acc| cbp.push_snapshot(acc, &snap))?;
+            stats.bp_s += t.elapsed().as_secs_f64();
+            done += 1;
+            progress(done, total);
+        }
+    }
+    stats.coarse_voxels = cimg.len();
+    stats.backprojections += (cimg.len() * rx_coarse.len() * tx_coarse.len()) as f64;
+    let cmax = cimg.iter().map(|z| z.norm()).fold(0.0f32, f32::max);
+    let cthr = cmax * 10f32.powf(im.coarse_threshold_db / 20.0);
+    let [cx, cy, cz] = cdims;
+    let mut mask = vec![false; cimg.len()];
+    for (i, z) in cimg.iter().enumerate() {
+        if cmax > 0.0 && z.norm() >= cthr {
+            let (x, y, zz) = (i % cx, (i / cx) % cy, i / (cx * cy));
+            for dz in -1i64..=1 {
+                for dy in -1i64..=1 {
+                    for dx in -1i64..=1 {
+                        let (a, b, c) = (x as i64 + dx, y as i64 + dy, zz as i64 + dz);
+                        if a >= 0
+                            && b >= 0
+                            && c >= 0
+                            && (a as usize) < cx
+                            && (b as usize) < cy
+                            && (c as usize) < cz
+                        {
+                            mask[a as usize + cx * (b as usize + cy * c as usize)] = true;
+                        }
+                    }
+                }
+            }
+        }
+    }
+    drop(cimg);
+
+    // ---- Fine pass over the bricks that touch the mask.
+    let v = im.voxel_m;
+    let fdims = dims_of(lo, hi, v);
+    stats.region_voxels = fdims.iter().product();
+    let nb = [
+        fdims[0].div_ceil(BRICK),
+        fdims[1].div_ceil(BRICK),
+        fdims[2].div_ceil(BRICK),
+    ];
+    let in_mask = |p: Vec3| {
+        let q = ((p - lo) / cv).round();
+        let (a, b, c) = (q.x as usize, q.y as usize, q.z as usize);
+        a < cx && b < cy && c < cz && mask[a + cx * (b + cy * c)]
+    };
+    let mut bricks = Vec::new();
+    let mut offset = 0usize;
+    for bz in 0..nb[2] {
+        for by in 0..nb[1] {
+            for bx in 0..nb[0] {
+                let start = [bx * BRICK, by * BRICK, bz * BRICK];
+                let dims = [
+                    BRICK.min(fdims[0] - start[0]),
+                    BRICK.min(fdims[1] - start[1]),
+                    BRICK.min(fdims[2] - start[2]),
+                ];
+                let origin = lo + Vec3::new(start[0] as f32, start[1] as f32, start[2] as f32) * v;
+                let ext = Vec3::new(dims[0] as f32, dims[1] as f32, dims[2] as f32) * v;
+                // Active if any of its corners or centre lies in the (dilated) mask.
+                let probes = (0..8)
+                    .map(|i| {
+                        origin
+                            + Vec3::new(
+                                if i & 1 == 0 { 0.0 } else { ext.x },
+                                if i & 2 == 0 { 0.0 } else { ext.y },
+                                if i & 4 == 0 { 0.0 } else { ext.z },
+                            )
+                    })
+                    .chain(std::iter::once(origin + ext * 0.5));
+                if !probes.into_iter().any(in_mask) {
+                    continue;
+                }
+                let grid = VoxelGrid {
+                    origin,
+                    spacing: Vec3::splat(v),
+                    dims,
+                };
+                let bp = Backprojector::new(bp_cfg(grid))?;
+                let n = bp.voxels();
+                bricks.push(Brick {
+                    rx_local: rx_fine.iter().map(|&p| grid.local(p)).collect(),
+                    bp,
+                    offset,
+                });
+                offset += n;
+            }
+        }
+    }
+    stats.fine_voxels = offset;
+    let mut img = vec![Complex32::new(0.0, 0.0); offset];
+    let mut raw_q =
+        vec![num_complex::Complex::<i64>::new(0, 0); if opts.fixed_point { offset } else { 0 }];
+    let mut prof = vec![Complex32::new(0.0, 0.0); rx_fine.len() * geo.n_bins];
+    let mut prof_q = vec![CQ15::default(); if opts.fixed_point { prof.len() } else { 0 }];
+    let mut exps = vec![0i32; rx_fine.len()];
+    let mut qimg = vec![Complex32::new(0.0, 0.0); if opts.fixed_point { offset } else { 0 }];
+    {
+        let mut accs = if opts.fixed_point {
+            let mut v = Vec::with_capacity(bricks.len());
+            let mut rest: &mut [num_complex::Complex<i64>] = &mut raw_q;
+            for b in &bricks {
+                let (head, tail) = rest.split_at_mut(b.bp.voxels());
+                v.push(AccQ15::tile(&b.bp, 0, head)?);
+                rest = tail;
+            }
+            Accs::Q15(v)
+        } else {
+            let mut v = Vec::with_capacity(bricks.len());
+            let mut rest: &mut [Complex32] = &mut img;
+            for b in &bricks {
+                let (head, tail) = rest.split_at_mut(b.bp.voxels());
+                v.push(AccF32::tile(&b.bp, 0, head)?);
+                rest = tail;
+            }
+            Accs::F32(v)
+        };
+        for (f, &tx) in tx_fine.iter().enumerate() {
+            src.frame(f, tx, &rx_fine, &mut prof)?;
+            let t = Instant::now();
+            match &mut accs {
+                Accs::F32(v) => {
+                    v.par_iter_mut()
+                        .zip(bricks.par_iter())
+                        .try_for_each(|(acc, b)| {
+                            b.bp.push_snapshot(
+                                acc,
+                                &Snapshot {
+                                    tx: b.bp.grid().local(tx),
+                                    rx: &b.rx_local,
+                                    profiles: &prof,
+                                    profile_len: geo.n_bins,
+                                },
+                            )
+                        })?
+                }
+                Accs::Q15(v) => {
+                    prof_q
+                        .par_chunks_mut(geo.n_bins)
+                        .zip(prof.par_chunks(geo.n_bins))
+                        .zip(exps.par_iter_mut())
+                        .try_for_each(|((q, p), e)| -> Result<(), has_dsp::DspError> {
+                            *e = cq15_block_from_c32(p, q)?;
+                            Ok(())
+                        })?;
+                    v.par_iter_mut()
+                        .zip(bricks.par_iter())
+                        .try_for_each(|(acc, b)| {
+                            b.bp.push_snapshot_q15(
+                                acc,
+                                &Snapshot {
+                                    tx: b.bp.grid().local(tx),
+                                    rx: &b.rx_local,
+                                    profiles: &prof_q,
+                                    profile_len: geo.n_bins,
+                                },
+                                &exps,
+                            )
+                        })?
+                }
+            }
+            stats.bp_s += t.elapsed().as_secs_f64();
+            done += 1;
+            progress(done, total);
+        }
+        if let Accs::Q15(v) = &accs {
+            for (acc, b) in v.iter().zip(&bricks) {
+                acc.to_image_f32(&mut qimg[b.offset..b.offset + b.bp.voxels()])?;
+            }
+        }
+    }
+    if opts.fixed_point {
+        img = qimg;
+    }
+    stats.backprojections += (offset * rx_fine.len() * tx_fine.len()) as f64;
+    stats.synth_s = src.synth_s;
+    stats.visible_scatterers = src.first_visible;
+
+    let (points, intensity) = extract_points(&bricks, &img, &geo, im.threshold_db, im.local_max);
+    Ok(PairImage {
+        points,
+        intensity,
+        stats,
+    })
+}
+
+fn dims_of(lo: Vec3, hi: Vec3, v: f32) -> [usize; 3] {
+    let d = ((hi - lo) / v).floor() + Vec3::ONE;
+    [d.x as usize, d.y as usize, d.z as usize]
+}
+
+/// Thresholds the fine image and, optionally, keeps only voxels that are local maxima of `|I|`
+/// along the bistatic range gradient (the direction the pair resolves best).
+fn extract_points(
+    bricks: &[Brick],
+    img: &[Complex32],
+    geo: &PairGeometry,
+    threshold_db: f32,
+    local_max: bool,
+) -> (Vec<Vec3>, Vec<f32>) {
+    let peak = img.iter().map(|z| z.norm()).fold(0.0f32, f32::max);
+    if peak <= 0.0 {
+        return (Vec::new(), Vec::new());
+    }
+    let thr = peak * 10f32.powf(threshold_db / 20.0);
+    // Lookup of |I| at any world position imaged (nearest voxel; None outside active bricks).
+    let v = bricks.first().map(|b| b.bp.grid().spacing.x).unwrap_or(1.0);
+    let mut index = std::collections::HashMap::new();
+    for (bi, b) in bricks.iter().enumerate() {
+        let o = b.bp.grid().origin;
+        index.insert(key(o, v), bi);
+    }
+    let lookup = |p: Vec3| -> Option<f32> {
+        // Find the brick by its origin: bricks tile the grid at multiples of BRICK·v from the
+        // first brick's grid, so round down to the brick lattice relative to any brick origin.
+        let base = bricks.first()?.bp.grid().origin;
+        let rel = ((p - base) / v).round();
+        let bs = BRICK as f32;
+        let bo = Vec3::new(
+            (rel.x / bs).floor() * bs,
+            (rel.y / bs).floor() * bs,
+            (rel.z / bs).floor() * bs,
+        );
+        let origin = base + bo * v;
+        let bi = *index.get(&key(origin, v))?;
+        let b = &bricks[bi];
+        let local = rel - bo;
+        let d = b.bp.grid().dims;
+        let (x, y, z) = (local.x as usize, local.y as usize, local.z as usize);
+        if x >= d[0] || y >= d[1] || z >= d[2] {
+            return None;
+        }
+        Some(img[b.offset + x + d[0] * (y + d[1] * z)].norm())
+    };
+    let tx_c = geo.aperture.centre();
+    let rx_c = geo.array.centre;
+    let mut points = Vec::new();
+    let mut intensity = Vec::new();
+    for b in bricks {
+        let g = b.bp.grid();
+        for i in 0..b.bp.voxels() {
+            let a = img[b.offset + i].norm();
+            if a < thr {
+                continue;
+            }
+            let p = g.voxel_world(i).unwrap_or(g.origin);
+            if local_max {
+                let grad = ((p - tx_c).normalize_or_zero() + (p - rx_c).normalize_or_zero())
+                    .normalize_or_zero();
+                let step = grad * v;
+                let before = lookup(p - step).unwrap_or(0.0);
+                let after = lookup(p + step).unwrap_or(0.0);
+                if a < before || a < after {
+                    continue;
+                }
+            }
+            points.push(p);
+            intensity.push(a / peak);
+        }
+    }
+    (points, intensity)
+}
+
+fn key(p: Vec3, v: f32) -> [i64; 3] {
+    let q = (p / v).round();
+    [q.x as i64, q.y as i64, q.z as i64]
+}
