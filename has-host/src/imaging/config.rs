@@ -292,6 +292,18 @@ fn invalid(
     }
 }
 
+/// A TOML error as one line: `line N: message` (the parser's own text spans several lines).
+fn one_line_toml_error(text: &str, e: &toml::de::Error) -> String {
+    let msg = e.message().split_whitespace().collect::<Vec<_>>().join(" ");
+    match e.span() {
+        Some(span) => {
+            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
+            format!("line {line}: {msg}")
+        }
+        None => msg,
+    }
+}
+
 fn check_pos3(field: String, v: [f32; 3]) -> Result<(), ScenarioError> {
     if v.iter().all(|x| x.is_finite()) {
         Ok(())
@@ -342,7 +354,7 @@ impl ImagingScenario {
     pub fn from_toml_str(text: &str) -> Result<ImagingScenario, ScenarioError> {
         let mut s: ImagingScenario = toml::from_str(text).map_err(|e| ScenarioError::Toml {
             path: PathBuf::from("<string>"),
-            msg: e.to_string().trim_end().to_string(),
+            msg: one_line_toml_error(text, &e),
         })?;
         s.scene.set_base_dir(".");
         s.base_dir = PathBuf::from(".");
