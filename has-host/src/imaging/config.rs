@@ -69,6 +69,17 @@ pub struct RadarSpec {
     pub snr_db: f64,
 }
 
+impl RadarSpec {
+    /// The carrier in Hz (validated by [`ImagingScenario::validate`]).
+    ///
+    /// # Errors
+    /// [`ScenarioError::Invalid`] for a carrier that is not finite and positive.
+    pub fn fc_hz_checked(&self) -> Result<f64, ScenarioError> {
+        check_positive("radar.fc_ghz", self.fc_ghz)?;
+        Ok(self.fc_ghz * 1e9)
+    }
+}
+
 /// `[[base_stations]]`: a vertical 2-D array receiving.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]

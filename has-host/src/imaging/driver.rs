@@ -300,33 +300,27 @@ pub fn image_pair(
     let lambda = sc.wavelength_m();
     let window = sc.window()?;
     let n_sc = sc.radar.subcarriers;
-    let mut w = vec![0.0f32; n_sc];
-    window.fill_f32(&mut w)?;
-    let echo_cfg = EchoConfig {
-        fc_hz: sc.radar.fc_ghz * 1e9,
-        bandwidth_hz: sc.radar.bandwidth_mhz * 1e6,
+    let rc = RangeCompressor::new(RangeConfig {
         n_subcarriers: n_sc,
+        bandwidth_hz: sc.radar.bandwidth_mhz * 1e6,
         zero_pad: sc.radar.zero_pad,
-        window: w,
-        r0_m: geo.r0_m,
-        n_bins: geo.n_bins,
-        kernel_half_width_cells: if matches!(window, has_dsp::window::Window::Rectangular) {
-            16
-        } else {
-            6
-        },
-        kernel_oversample: 64,
+        mode: RangeMode::Matched,
+        window,
+        q15_scaling: Default::default(),
+    })?;
+    // The exact weights the compressor applies, so direct synthesis equals its output.
+    let mut echo_cfg = EchoConfig::for_compressor(sc.radar.fc_hz_checked()?, &rc)?;
+    echo_cfg.r0_m = geo.r0_m;
+    echo_cfg.n_bins = geo.n_bins;
+    // Hann/Taylor sidelobes fall below −70 dB within 6 cells; the rectangular pulse needs more.
+    echo_cfg.kernel_half_width_cells = if matches!(window, has_dsp::window::Window::Rectangular) {
+        16
+    } else {
+        6
     };
+    echo_cfg.kernel_oversample = 64;
     let synth = EchoSynth::new(echo_cfg)?;
     let raw = if opts.raw_ofdm {
-        let rc = RangeCompressor::new(RangeConfig {
-            n_subcarriers: n_sc,
-            bandwidth_hz: sc.radar.bandwidth_mhz * 1e6,
-            zero_pad: sc.radar.zero_pad,
-            mode: RangeMode::Matched,
-            window,
-            q15_scaling: Default::default(),
-        })?;
         let symbols = crate::echo::qpsk_symbols(n_sc, im.seed);
         let mut reference = vec![Complex32::new(0.0, 0.0); n_sc];
         rc.prepare_reference(&symbols, &mut reference)?;
