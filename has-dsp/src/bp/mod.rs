@@ -101,7 +101,6 @@ pub const MAX_ABS_EXPONENT: i32 = 96;
 
 /// A regular voxel grid.
 #[derive(Debug, Clone, Copy, PartialEq)]
-#[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct VoxelGrid {
     /// World position of voxel (0, 0, 0), metres.
     pub origin: Vec3,
@@ -109,6 +108,20 @@ pub struct VoxelGrid {
     pub spacing: Vec3,
     /// Voxels along x, y, z (each ≥ 1).
     pub dims: [usize; 3],
+}
+
+// glam's `Vec3` has no `defmt::Format`: print its components as arrays.
+#[cfg(feature = "defmt")]
+impl defmt::Format for VoxelGrid {
+    fn format(&self, f: defmt::Formatter) {
+        defmt::write!(
+            f,
+            "VoxelGrid {{ origin: {}, spacing: {}, dims: {} }}",
+            self.origin.to_array(),
+            self.spacing.to_array(),
+            self.dims
+        )
+    }
 }
 
 impl VoxelGrid {
