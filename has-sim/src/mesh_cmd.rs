@@ -27,8 +27,9 @@ pub struct MeshArgs {
     /// Also write the mesh as PLY, with each vertex's support density as a property.
     #[arg(long)]
     pub ply: Option<PathBuf>,
-    /// Octree depth: finest cell = padded largest extent / 2^depth.
-    #[arg(long, default_value_t = 8)]
+    /// Grid depth: finest cell = 1.2 × largest extent / 2^depth; aim for a cell of 2–3 times
+    /// the cloud's noise σ.
+    #[arg(long, default_value_t = 7)]
     pub depth: u32,
     /// Density-trim quantile in [0, 1) (Open3D style): drop vertices whose support density is
     /// below this quantile, with their faces. Omitted (and no `--trim-median`) = keep the closed

@@ -12,7 +12,9 @@
 //! their reference implementation, which in metric units is aₚ/h). The normal equations are
 //! (L + Σₚ (βₚ/h)·tₚtₚᵀ)·χ = h·D·V with L the 7-point graph Laplacian (natural Neumann boundary)
 //! and D the signed edge-to-node incidence (a discrete −divergence). The system is symmetric
-//! positive definite for α > 0.
+//! positive definite for α > 0. The basis is therefore first order (trilinear splats and a
+//! finite-difference Laplacian on the nodes), not K&H's degree-2 B-splines: smoother bases
+//! would reduce the faceting of the level set at a given depth.
 //!
 //! How it is solved (a cascadic multigrid): the same system is assembled on `levels + 1` nested
 //! grids (cell sizes h·2^j), solved by Jacobi-preconditioned conjugate gradients on the coarsest,
@@ -41,7 +43,9 @@ use crate::knn::{check_points, GeometryError, PointIndex};
 /// Settings of [`screened_poisson`].
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PoissonParams {
-    /// Finest grid: cell size = padded largest extent / 2^depth. 1..=10.
+    /// Finest grid: cell size = padded largest extent / 2^depth. 1..=10. Choose it so that the
+    /// cell is about 2–3 times the cloud's position noise σ: finer cells follow the noise (on a
+    /// noisy 40 m factory cloud with σ = 0.3 m, depth 6 (0.87 m cells) scored better than 7).
     pub depth: u32,
     /// Coarser grids used by the cascadic solve (0 = solve on the finest grid only).
     pub levels: u32,
@@ -63,7 +67,7 @@ pub struct PoissonParams {
 impl Default for PoissonParams {
     fn default() -> Self {
         PoissonParams {
-            depth: 8,
+            depth: 7,
             levels: 4,
             screening: 4.0,
             cg_tolerance: 1e-4,
