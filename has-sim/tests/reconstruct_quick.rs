@@ -33,6 +33,15 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
     assert!(f15 >= 91.0, "F-score(1.5 m) {f15}");
     assert!(pc["fscore_0_5m"].as_f64().is_some() && pc["fscore_1_0m"].as_f64().is_some());
     assert_eq!(report["imaging"]["pairs"].as_array().map(Vec::len), Some(6));
+    // The mesh of the quick cloud (Poisson depth 7, trim 0.25 × median density) measured √CD
+    // 1.317 m and F-score(1.5 m) 87.8: on this coarse cloud it is still worse than the cloud
+    // itself (issue #5 is open for that); the bounds guard against regressions.
+    let mesh = &report["mesh"];
+    let mesh_cd = mesh["sqrt_chamfer_m"].as_f64().expect("mesh.sqrt_chamfer_m");
+    let mesh_f = mesh["fscore_1_5m"].as_f64().expect("mesh.fscore_1_5m");
+    assert!(mesh_cd <= 1.4, "mesh √CD {mesh_cd} m");
+    assert!(mesh_f >= 86.0, "mesh F-score(1.5 m) {mesh_f}");
+    assert_eq!(mesh["manifold"].as_bool(), Some(true));
     for f in [
         "report.md",
         "fused.ply",
@@ -40,6 +49,9 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
         "fused_top.svg",
         "fused_side.svg",
         "pair_BS2-UAV.ply",
+        "mesh.obj",
+        "mesh.ply",
+        "mesh_top.svg",
     ] {
         let len = std::fs::metadata(out.join(f)).map(|m| m.len()).unwrap_or(0);
         assert!(len > 100, "{f} missing or empty");
@@ -47,13 +59,9 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
-#[test]
-fn malformed_scenario_fails_with_one_line_naming_the_field() {
-    let dir = out_dir("bad");
-    std::fs::create_dir_all(&dir).unwrap();
+/// Runs `reconstruct` on `text` written to a file; returns (success, stderr).
+fn reconstruct_text(dir: &std::path::Path, text: &str) -> (bool, String) {
     let bad = dir.join("bad.toml");
-    let text =
-        include_str!("../../fixtures/factory.toml").replace("voxel_m = 0.25", "voxel_m = -1.0");
     std::fs::write(&bad, text).unwrap();
     let out = Command::new(env!("CARGO_BIN_EXE_has-sim"))
         .args(["reconstruct"])
@@ -62,25 +70,39 @@ fn malformed_scenario_fails_with_one_line_naming_the_field() {
         .arg(dir.join("out"))
         .output()
         .expect("has-sim runs");
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn malformed_scenario_fails_with_one_line_naming_the_field() {
+    let dir = out_dir("bad");
+    std::fs::create_dir_all(&dir).unwrap();
+    let factory = include_str!("../../fixtures/factory.toml");
+
+    let (ok, err) = reconstruct_text(&dir, &factory.replace("voxel_m = 0.25", "voxel_m = -1.0"));
+    assert!(!ok);
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(
         err.contains("imaging.voxel_m") && err.contains("-1"),
         "{err}"
     );
 
-    let text = include_str!("../../fixtures/factory.toml").replace("[radar]", "[radar]\nbogus = 1");
-    std::fs::write(&bad, text).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_has-sim"))
-        .args(["reconstruct"])
-        .arg(&bad)
-        .arg("--out")
-        .arg(dir.join("out"))
-        .output()
-        .expect("has-sim runs");
-    assert!(!out.status.success());
-    let err = String::from_utf8_lossy(&out.stderr);
+    let (ok, err) = reconstruct_text(&dir, &factory.replace("[radar]", "[radar]\nbogus = 1"));
+    assert!(!ok);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(err.contains("bogus"), "{err}");
+
+    let (ok, err) = reconstruct_text(
+        &dir,
+        &factory.replace(
+            "position = [-45.0, -40.0, 20.0]",
+            "position = [-45.0, nan, 20.0]",
+        ),
+    );
+    assert!(!ok);
+    assert!(err.contains("base_stations[0].position"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }

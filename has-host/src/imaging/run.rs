@@ -239,6 +239,8 @@ pub struct FusedCloud {
     pub intensity: Vec<f32>,
     /// How many pairs kept the point.
     pub pairs: Vec<u8>,
+    /// Which pairs kept the point: bit `k` for pair `k` (pairs beyond 64 are not recorded).
+    pub pair_mask: Vec<u64>,
     /// Per pair: its fusion factor `c_k·q_k`.
     pub pair_factor: Vec<f32>,
 }
@@ -278,16 +280,19 @@ pub fn fuse(
         .zip(&cells)
         .map(|(p, &c)| ((p.coverage_m2 / best_cov).sqrt() as f32) * (best_cell / c))
         .collect();
-    let mut map: HashMap<[i64; 3], (Vec3, f32, f32, u8)> = HashMap::new();
+    let mut map: HashMap<[i64; 3], (Vec3, f32, f32, u8, u64)> = HashMap::new();
     for (k, img) in images.iter().enumerate() {
         for (p, &i) in img.points.iter().zip(&img.intensity) {
             let q = (*p / voxel_m).round();
             let e = map
                 .entry([q.x as i64, q.y as i64, q.z as i64])
-                .or_insert((*p, 0.0, 0.0, 0));
+                .or_insert((*p, 0.0, 0.0, 0, 0));
             e.1 += i * factors[k];
             e.2 = e.2.max(i);
             e.3 = e.3.saturating_add(1);
+            if k < 64 {
+                e.4 |= 1 << k;
+            }
         }
     }
     let wmax = map.values().map(|e| e.1).fold(0.0f32, f32::max);
@@ -298,13 +303,39 @@ pub fn fuse(
         pair_factor: factors,
         ..FusedCloud::default()
     };
-    for (_, (p, w, i, n)) in entries {
+    for (_, (p, w, i, n, mask)) in entries {
         out.points.push(p);
         out.weight.push(w);
         out.intensity.push(i);
         out.pairs.push(n);
+        out.pair_mask.push(mask);
     }
     out
+}
+
+/// For each fused point, the positions of the sensors (panel centre and aperture centre of every
+/// pair) that observed it: what surface normals are oriented toward.
+pub fn observing_sensors(
+    sc: &ImagingScenario,
+    plans: &[PairPlan],
+    fused: &FusedCloud,
+) -> Vec<Vec<Vec3>> {
+    let per_pair: Vec<[Vec3; 2]> = plans
+        .iter()
+        .map(|p| [sc.array(p.bs).centre, sc.aperture(p.aperture, 2).centre()])
+        .collect();
+    fused
+        .pair_mask
+        .iter()
+        .map(|&m| {
+            per_pair
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| *k < 64 && (m >> k) & 1 == 1)
+                .flat_map(|(_, s)| s.iter().copied())
+                .collect()
+        })
+        .collect()
 }
 
 /// A run's results.
