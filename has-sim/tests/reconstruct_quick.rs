@@ -37,7 +37,9 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
     // 1.317 m and F-score(1.5 m) 87.8: on this coarse cloud it is still worse than the cloud
     // itself (issue #5 is open for that); the bounds guard against regressions.
     let mesh = &report["mesh"];
-    let mesh_cd = mesh["sqrt_chamfer_m"].as_f64().expect("mesh.sqrt_chamfer_m");
+    let mesh_cd = mesh["sqrt_chamfer_m"]
+        .as_f64()
+        .expect("mesh.sqrt_chamfer_m");
     let mesh_f = mesh["fscore_1_5m"].as_f64().expect("mesh.fscore_1_5m");
     assert!(mesh_cd <= 1.4, "mesh √CD {mesh_cd} m");
     assert!(mesh_f >= 86.0, "mesh F-score(1.5 m) {mesh_f}");
