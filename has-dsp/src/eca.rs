@@ -648,13 +648,9 @@ impl<const M: usize> Eca<M> {
 
 #[cfg(test)]
 mod tests {
-    extern crate std;
     use super::*;
     use crate::fixed::{cq15_to_c32, Q15};
     use crate::linalg::cholesky_solve;
-    use std::boxed::Box;
-    use std::vec;
-    use std::vec::Vec;
 
     /// Deterministic complex samples with components uniform in [−a, a) (64-bit LCG, Knuth's
     /// MMIX constants; the top 24 bits as the fraction).

@@ -148,8 +148,6 @@ mod tests {
 
     #[test]
     fn errors_name_field_and_value() {
-        extern crate std;
-        use std::string::ToString;
         let e = check_positive("config.bandwidth_hz", 0.0).unwrap_err();
         assert_eq!(e.to_string(), "config.bandwidth_hz: value 0 out of range");
         let e = check_len("profile", 1024, 1000).unwrap_err();

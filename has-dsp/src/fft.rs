@@ -294,10 +294,8 @@ pub fn ifft_q15(buf: &mut [CQ15], scaling: Q15Scaling) -> Result<i32, DspError> 
 
 #[cfg(test)]
 mod tests {
-    extern crate std;
     use super::*;
     use crate::fixed::{cq15_from_c32, cq15_to_c32};
-    use std::vec::Vec;
 
     /// Deterministic xorshift generator (fixed seed) for test data.
     struct XorShift(u64);

@@ -359,11 +359,8 @@ fn place<T: Copy>(n: usize, p: usize, profile: &mut [T], zero: T, value: impl Fn
 
 #[cfg(test)]
 mod tests {
-    extern crate std;
     use super::*;
     use crate::geometry::C_M_PER_S;
-    use std::vec;
-    use std::vec::Vec;
 
     const FC: f64 = 10e9;
     const B: f64 = 400e6;

@@ -396,10 +396,8 @@ impl<'a, const P: usize> TemplateSetQ15<'a, P> {
 
 #[cfg(test)]
 mod tests {
-    extern crate std;
     use super::*;
     use crate::fixed::{cq15_from_c32, cq15_to_c32};
-    use std::vec::Vec;
 
     /// Deterministic complex samples with components uniform in [−a, a) (64-bit LCG, Knuth's
     /// MMIX constants; the top 24 bits as the fraction).

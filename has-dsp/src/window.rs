@@ -183,11 +183,8 @@ pub fn coherent_gain_f32(window: &[f32]) -> f32 {
 
 #[cfg(test)]
 mod tests {
-    extern crate std;
     use super::*;
     use crate::fft::{ifft_c32, Complex32};
-    use std::vec;
-    use std::vec::Vec;
 
     #[test]
     fn windows_peak_at_index_zero_and_are_symmetric_in_fft_order() {

@@ -1,11 +1,8 @@
 //! Unit tests of back-projection: focusing of analytic point echoes, equivalence of the batched,
 //! tiled and single-profile entry points, fixed point against float, bad input.
 
-extern crate std;
 use super::*;
 use crate::fixed::Q15;
-use std::vec;
-use std::vec::Vec;
 
 const LAMBDA: f32 = 0.03;
 /// Range resolution (bistatic path length) c/B of a 1.5 GHz pulse, and two bins per resolution
