@@ -652,26 +652,7 @@ mod tests {
     use crate::fixed::{cq15_to_c32, Q15};
     use crate::linalg::cholesky_solve;
 
-    /// Deterministic complex samples with components uniform in [−a, a) (64-bit LCG, Knuth's
-    /// MMIX constants; the top 24 bits as the fraction).
-    fn lcg_signal(seed: u64, n: usize, a: f32) -> Vec<C32> {
-        let mut s = seed;
-        let mut u = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((s >> 40) as f32 / (1u64 << 24) as f32) * 2.0 - 1.0
-        };
-        (0..n).map(|_| C32::new(a * u(), a * u())).collect()
-    }
-
-    fn energy(v: &[C32]) -> f64 {
-        v.iter().map(|z| z.norm_sqr() as f64).sum()
-    }
-
-    fn db(x: f64) -> f64 {
-        10.0 * x.log10()
-    }
+    use crate::test_util::{db, energy, lcg_signal};
 
     const N: usize = 4096;
     const K: usize = 16;

@@ -22,6 +22,8 @@ pub mod ofdm;
 pub mod phase;
 pub mod range;
 pub mod template;
+#[cfg(test)]
+mod test_util;
 pub mod window;
 
 pub use error::DspError;
