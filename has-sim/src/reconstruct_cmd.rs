@@ -20,6 +20,11 @@ use crate::plot::{self, View};
 /// The bundled default scenario.
 pub const FACTORY_TOML: &str = include_str!("../../fixtures/factory.toml");
 
+/// Default Poisson grid depth of the surface reconstruction.
+pub const DEFAULT_MESH_DEPTH: u32 = 7;
+/// Default density trim, fraction of the median vertex support density.
+pub const DEFAULT_MESH_TRIM_MEDIAN: f32 = 0.25;
+
 /// Options of `reconstruct`.
 #[derive(Args)]
 pub struct ReconstructArgs {
@@ -40,10 +45,10 @@ pub struct ReconstructArgs {
     pub raw_ofdm: bool,
     /// Poisson grid depth of the surface reconstruction (finest cell = 1.2 × largest extent /
     /// 2^depth).
-    #[arg(long, default_value_t = 7)]
+    #[arg(long, default_value_t = DEFAULT_MESH_DEPTH)]
     pub mesh_depth: u32,
     /// Density trim of the mesh, fraction of the median vertex support density.
-    #[arg(long, default_value_t = 0.25)]
+    #[arg(long, default_value_t = DEFAULT_MESH_TRIM_MEDIAN)]
     pub mesh_trim_median: f32,
     /// Skip surface reconstruction.
     #[arg(long)]
@@ -164,6 +169,25 @@ fn mesh_stage(
         cmp.fscore(1.5)?.fscore_pct
     );
     Ok(m)
+}
+
+/// Runs `reconstruct` on `scenario` (default: the bundled factory), with the quick preset if
+/// `quick`, writing everything into `out`, and returns the path of the mesh it wrote
+/// (`out/mesh.obj`): the digital twin that `channel` and `localize` ray-trace when no mesh is given.
+#[allow(dead_code)] // first callers: `channel` and `localize` (issues 6, 7)
+pub fn build_twin(scenario: Option<PathBuf>, out: &Path, quick: bool) -> Result<PathBuf> {
+    run(ReconstructArgs {
+        scenario,
+        out: out.to_path_buf(),
+        quick,
+        fixed_point: false,
+        raw_ofdm: false,
+        mesh_depth: DEFAULT_MESH_DEPTH,
+        mesh_trim_median: DEFAULT_MESH_TRIM_MEDIAN,
+        no_mesh: false,
+    })
+    .context("reconstructing the digital twin")?;
+    Ok(out.join("mesh.obj"))
 }
 
 /// Runs the command.
