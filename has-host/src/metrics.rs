@@ -76,6 +76,38 @@ impl CloudComparison {
         self.chamfer_m2().sqrt()
     }
 
+    /// Root-mean-square distance from S1 to S2, metres ("accuracy": how far the reconstruction
+    /// lies from the truth). √CD² is the sum of the squares of this and [`Self::rms_s2_to_s1_m`].
+    pub fn rms_s1_to_s2_m(&self) -> f64 {
+        mean_f64(&self.s1_to_s2_sq_m2).sqrt()
+    }
+
+    /// Root-mean-square distance from S2 to S1, metres ("completeness": how far the truth lies
+    /// from the reconstruction).
+    pub fn rms_s2_to_s1_m(&self) -> f64 {
+        mean_f64(&self.s2_to_s1_sq_m2).sqrt()
+    }
+
+    /// Completeness on a subset of S2 (`keep[i]` for S2 point i): the rms distance from the kept
+    /// S2 points to S1 (m) and the percentage of them within `d_m` of S1 (the recall of eq. 3
+    /// restricted to them). `None` if `keep` has another length than S2 or keeps nothing.
+    pub fn completeness_on(&self, keep: &[bool], d_m: f32) -> Option<(f64, f64)> {
+        if keep.len() != self.s2_to_s1_sq_m2.len() {
+            return None;
+        }
+        let kept: Vec<f32> = self
+            .s2_to_s1_sq_m2
+            .iter()
+            .zip(keep)
+            .filter(|(_, &k)| k)
+            .map(|(&d, _)| d)
+            .collect();
+        if kept.is_empty() {
+            return None;
+        }
+        Some((mean_f64(&kept).sqrt(), pct_below(&kept, d_m * d_m)))
+    }
+
     /// Precision, recall and F-score at threshold `d_m` (eq. 3).
     ///
     /// # Errors
@@ -284,6 +316,23 @@ mod tests {
         assert_eq!(f.precision_pct, 100.0);
         assert_eq!(f.recall_pct, 50.0);
         assert!((f.fscore_pct - 200.0 / 3.0).abs() < 1e-9);
+    }
+
+    #[test]
+    fn directional_rms_and_subset_completeness_split_eq2() {
+        // Same sets as above: S1→S2 rms 0, S2→S1 rms √2; their squares sum to CD.
+        let s1 = [Vec3::ZERO];
+        let s2 = [Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0)];
+        let c = CloudComparison::new(&s1, &s2).unwrap();
+        assert_eq!(c.rms_s1_to_s2_m(), 0.0);
+        assert!((c.rms_s2_to_s1_m() - 2f64.sqrt()).abs() < 1e-12);
+        let sum = c.rms_s1_to_s2_m().powi(2) + c.rms_s2_to_s1_m().powi(2);
+        assert!((sum - c.chamfer_m2()).abs() < 1e-12);
+        // Keeping only the far point: rms 2 m, recall(1 m) 0 %; only the near one: 0 m, 100 %.
+        assert_eq!(c.completeness_on(&[false, true], 1.0), Some((2.0, 0.0)));
+        assert_eq!(c.completeness_on(&[true, false], 1.0), Some((0.0, 100.0)));
+        assert_eq!(c.completeness_on(&[false, false], 1.0), None);
+        assert_eq!(c.completeness_on(&[true], 1.0), None);
     }
 
     #[test]

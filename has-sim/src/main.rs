@@ -13,6 +13,7 @@ mod mesh_cmd;
 mod paths_cmd;
 mod plot;
 mod reconstruct_cmd;
+mod resources;
 mod scene_cmd;
 
 /// Hybrid aperture sensing simulator.

@@ -40,6 +40,27 @@ pub struct MeshArgs {
     /// removes a large extrapolated part such as a building's open bottom.
     #[arg(long)]
     pub trim_median: Option<f32>,
+    /// Drop connected components smaller than this fraction of the largest one's area (after
+    /// trimming); 0 keeps every component.
+    #[arg(long, default_value_t = 0.0)]
+    pub min_component: f32,
+    /// Keep only faces inside this box, lower corner `x y z` in metres (with `--clip-max`):
+    /// typically the imaging region, outside which the closed surface is invented.
+    #[arg(
+        long,
+        num_args = 3,
+        requires = "clip_max",
+        allow_negative_numbers = true
+    )]
+    pub clip_min: Option<Vec<f32>>,
+    /// Upper corner of the clip box, `x y z` in metres.
+    #[arg(
+        long,
+        num_args = 3,
+        requires = "clip_min",
+        allow_negative_numbers = true
+    )]
+    pub clip_max: Option<Vec<f32>>,
     /// Screening weight α (Kazhdan & Hoppe 2013; 0 = unscreened).
     #[arg(long, default_value_t = 4.0)]
     pub screening: f32,
@@ -75,6 +96,8 @@ fn metrics_json(s1: &[Vec3], truth: &[Vec3]) -> anyhow::Result<serde_json::Value
     Ok(serde_json::json!({
         "points": s1.len(),
         "sqrt_chamfer_m": c.sqrt_chamfer_m(),
+        "rms_to_truth_m": c.rms_s1_to_s2_m(),
+        "rms_from_truth_m": c.rms_s2_to_s1_m(),
         "fscores": f,
     }))
 }
@@ -86,8 +109,10 @@ fn summary_line(name: &str, m: &serde_json::Value) -> String {
             .unwrap_or(f64::NAN)
     };
     format!(
-        "{name:<28} √CD {:>7.3} m   F(0.5 m) {:>6.2}   F(1.0 m) {:>6.2}   F(1.5 m) {:>6.2}",
+        "{name:<28} √CD {:>7.3} m (rms to/from truth {:.3}/{:.3})   F(0.5 m) {:>6.2}   F(1.0 m) {:>6.2}   F(1.5 m) {:>6.2}",
         m["sqrt_chamfer_m"].as_f64().unwrap_or(f64::NAN),
+        m["rms_to_truth_m"].as_f64().unwrap_or(f64::NAN),
+        m["rms_from_truth_m"].as_f64().unwrap_or(f64::NAN),
         f("0.5"),
         f("1"),
         f("1.5")
@@ -174,10 +199,23 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         Some(r) => trim(&out.mesh, &out.vertex_density, r)?,
         None => out.mesh.clone(),
     };
+    let mesh = match (&a.clip_min, &a.clip_max) {
+        (Some(lo), Some(hi)) => mesh
+            .clip_to_box(Vec3::from_slice(lo), Vec3::from_slice(hi))
+            .context("--clip-min/--clip-max")?,
+        _ => mesh,
+    };
+    let mesh = if a.min_component > 0.0 {
+        mesh.remove_small_components(a.min_component)
+            .context("--min-component")?
+    } else {
+        mesh
+    };
     let poisson_s = t1.elapsed().as_secs_f64();
     let top = mesh.topology();
     // Densities follow the vertices only for the untrimmed mesh.
-    let density = rule.is_none().then_some(out.vertex_density.as_slice());
+    let density = (rule.is_none() && a.min_component == 0.0 && a.clip_min.is_none())
+        .then_some(out.vertex_density.as_slice());
     write_mesh(&mesh, &a.out, a.ply.as_deref(), density)?;
     println!(
         "mesh: {} points → {} vertices, {} faces, cell {:.3} m, grid {:?}, watertight {}, manifold {}",
@@ -208,6 +246,7 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
             "iso_value": out.iso_value,
             "levels": out.levels,
         },
+        "peak_rss_mib": crate::resources::peak_rss_mib(),
         "time_s": {"normals": normals_s, "solve": out.solve_s, "extract": out.extract_s, "poisson_total": poisson_s},
     });
     let truth = match &a.truth {

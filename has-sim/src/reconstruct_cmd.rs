@@ -20,8 +20,9 @@ use crate::plot::{self, View};
 /// The bundled default scenario.
 pub const FACTORY_TOML: &str = include_str!("../../fixtures/factory.toml");
 
-/// Default Poisson grid depth of the surface reconstruction.
-pub const DEFAULT_MESH_DEPTH: u32 = 7;
+/// Connected components of the mesh below this fraction of the largest one's area are dropped
+/// (blobs around ghost points).
+pub const MESH_MIN_COMPONENT_FRACTION: f32 = 0.02;
 /// Default density trim, fraction of the median vertex support density.
 pub const DEFAULT_MESH_TRIM_MEDIAN: f32 = 0.25;
 
@@ -44,9 +45,9 @@ pub struct ReconstructArgs {
     #[arg(long)]
     pub raw_ofdm: bool,
     /// Poisson grid depth of the surface reconstruction (finest cell = 1.2 × largest extent /
-    /// 2^depth).
-    #[arg(long, default_value_t = DEFAULT_MESH_DEPTH)]
-    pub mesh_depth: u32,
+    /// 2^depth). Default: the smallest depth whose cell is at most the imaging voxel.
+    #[arg(long)]
+    pub mesh_depth: Option<u32>,
     /// Density trim of the mesh, fraction of the median vertex support density.
     #[arg(long, default_value_t = DEFAULT_MESH_TRIM_MEDIAN)]
     pub mesh_trim_median: f32,
@@ -83,6 +84,8 @@ fn write_cloud(path: &Path, points: &[Vec3], props: Vec<(&str, Vec<f32>)>) -> Re
 fn metrics_json(c: &CloudComparison, n_points: usize, n_truth: usize) -> Result<serde_json::Value> {
     let mut v = json!({
         "sqrt_chamfer_m": c.sqrt_chamfer_m(),
+        "rms_to_truth_m": c.rms_s1_to_s2_m(),
+        "rms_from_truth_m": c.rms_s2_to_s1_m(),
         "points": n_points,
         "truth_points": n_truth,
     });
@@ -96,6 +99,17 @@ fn metrics_json(c: &CloudComparison, n_points: usize, n_truth: usize) -> Result<
     Ok(v)
 }
 
+/// Completeness on the observable and the hidden part of the truth ([`imaging::observable_truth`]):
+/// rms distance to the reconstruction and recall at 1.5 m of each part.
+fn observable_json(c: &CloudComparison, observable: &[bool]) -> serde_json::Value {
+    let hidden: Vec<bool> = observable.iter().map(|&o| !o).collect();
+    let part = |keep: &[bool]| match c.completeness_on(keep, 1.5) {
+        Some((rms, recall)) => json!({"rms_from_truth_m": rms, "recall_1_5m": recall}),
+        None => json!(null),
+    };
+    json!({"observable": part(observable), "hidden": part(&hidden)})
+}
+
 /// Surface reconstruction of the fused cloud (normals oriented toward the sensors that observed
 /// each point, screened Poisson, density trim), its metrics against the same ground truth, and
 /// `mesh.obj`, `mesh.ply`, `mesh_top.svg`, `mesh_side.svg`.
@@ -104,8 +118,11 @@ fn mesh_stage(
     sc: &ImagingScenario,
     world: &imaging::World,
     result: &imaging::RunResult,
+    observable: &[bool],
 ) -> Result<serde_json::Value> {
-    use has_host::mesh::{reconstruct, Orientation, PoissonParams, ReconstructParams, Trim};
+    use has_host::mesh::{
+        depth_for_cell, reconstruct, Orientation, PoissonParams, ReconstructParams, Trim,
+    };
     if !(args.mesh_trim_median > 0.0 && args.mesh_trim_median <= 1.0) {
         anyhow::bail!(
             "--mesh-trim-median: {} is not a fraction in (0, 1]",
@@ -114,12 +131,22 @@ fn mesh_stage(
     }
     let t = Instant::now();
     let sensors = imaging::observing_sensors(sc, &result.plans, &result.fused);
+    let padding = PoissonParams::default().padding;
+    let depth = args
+        .mesh_depth
+        .unwrap_or_else(|| depth_for_cell(&result.fused.points, padding, sc.imaging.voxel_m));
+    let region = (
+        Vec3::from_array(sc.imaging.region_min),
+        Vec3::from_array(sc.imaging.region_max),
+    );
     let params = ReconstructParams {
         poisson: PoissonParams {
-            depth: args.mesh_depth,
+            depth,
             ..PoissonParams::default()
         },
         trim: Some(Trim::MedianFraction(args.mesh_trim_median)),
+        clip_box: Some(region),
+        min_component_fraction: Some(MESH_MIN_COMPONENT_FRACTION),
         ..ReconstructParams::default()
     };
     let rec = reconstruct(
@@ -129,16 +156,32 @@ fn mesh_stage(
     )
     .context("surface reconstruction")?;
     let seconds = t.elapsed().as_secs_f64();
+    // The oriented input of the mesher, so that `has-sim mesh mesh_input.ply` reproduces (and
+    // can vary) this stage without rerunning the imaging.
+    let n = &rec.normals;
+    write_cloud(
+        &args.out.join("mesh_input.ply"),
+        &result.fused.points,
+        vec![
+            ("nx", n.iter().map(|v| v.x).collect()),
+            ("ny", n.iter().map(|v| v.y).collect()),
+            ("nz", n.iter().map(|v| v.z).collect()),
+        ],
+    )?;
     let density = sc.imaging.truth_density_per_m2;
     let samples = rec.mesh.sample(density, sc.imaging.seed.wrapping_add(3))?;
     let cmp = CloudComparison::new(&samples, &world.truth)?;
     let mut m = metrics_json(&cmp, samples.len(), world.truth.len())?;
+    m["observable_truth"] = observable_json(&cmp, observable);
     let topo = rec.mesh.topology();
     m["vertices"] = json!(rec.mesh.vertices.len());
     m["faces"] = json!(rec.mesh.faces.len());
     m["watertight"] = json!(topo.watertight);
     m["manifold"] = json!(topo.manifold);
-    m["depth"] = json!(args.mesh_depth);
+    m["depth"] = json!(depth);
+    m["cell_m"] = json!(rec.poisson.cell_m);
+    m["clip_box"] = json!([region.0.to_array(), region.1.to_array()]);
+    m["min_component_fraction"] = json!(MESH_MIN_COMPONENT_FRACTION);
     m["trim_median_fraction"] = json!(args.mesh_trim_median);
     m["sample_density_per_m2"] = json!(density);
     m["seconds"] = json!(seconds);
@@ -182,7 +225,7 @@ pub fn build_twin(scenario: Option<PathBuf>, out: &Path, quick: bool) -> Result<
         quick,
         fixed_point: false,
         raw_ofdm: false,
-        mesh_depth: DEFAULT_MESH_DEPTH,
+        mesh_depth: None,
         mesh_trim_median: DEFAULT_MESH_TRIM_MEDIAN,
         no_mesh: false,
     })
@@ -231,7 +274,11 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     let t2 = Instant::now();
     let fused = &result.fused;
     let cmp = CloudComparison::new(&fused.points, &world.truth)?;
-    let fused_metrics = metrics_json(&cmp, fused.points.len(), world.truth.len())?;
+    let mut fused_metrics = metrics_json(&cmp, fused.points.len(), world.truth.len())?;
+    let observable = imaging::observable_truth(&sc, &world, &result.plans);
+    let observable_pct =
+        100.0 * observable.iter().filter(|&&o| o).count() as f64 / observable.len().max(1) as f64;
+    fused_metrics["observable_truth"] = observable_json(&cmp, &observable);
     let mut pairs_json = Vec::new();
     let mut total_bp = 0.0;
     let mut total_bp_s = 0.0;
@@ -303,7 +350,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     let mesh_json = if args.no_mesh {
         json!(null)
     } else {
-        mesh_stage(&args, &sc, &world, &result)?
+        mesh_stage(&args, &sc, &world, &result, &observable)?
     };
     let wall = t0.elapsed().as_secs_f64();
 
@@ -321,6 +368,8 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
                 "objects": sc.imaging.truth_objects,
                 "density_per_m2": sc.imaging.truth_density_per_m2,
                 "surfaces": "every face of the truth objects not facing down (walls and roof)",
+                "observable_pct": observable_pct,
+                "observable": "truth points in line of sight of some imaged pair's panel and aperture (imaging::observable_truth)",
             },
         },
         "mesh": mesh_json,
@@ -337,6 +386,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             "backprojection": total_bp_s,
             "postprocess": t_post,
         },
+        "peak_rss_mib": crate::resources::peak_rss_mib(),
         "backprojections": total_bp,
         "backprojections_per_s": total_bp / total_bp_s.max(1e-9),
         "threads": rayon::current_num_threads(),
@@ -411,9 +461,24 @@ fn report_md(r: &serde_json::Value, cmp: &CloudComparison) -> Result<String> {
             "| √Chamfer distance | {:.3} m | 0.96 m |",
             g("sqrt_chamfer_m")
         )?;
-        writeln!(s, "| F-score (d = 0.5 m) | {:.1} | — |", g("fscore_0_5m"))?;
-        writeln!(s, "| F-score (d = 1.0 m) | {:.1} | — |", g("fscore_1_0m"))?;
-        writeln!(s, "| F-score (d = 1.5 m) | {:.1} | 96 |", g("fscore_1_5m"))?;
+        for (key, paper) in [("0_5", "—"), ("1_0", "—"), ("1_5", "96")] {
+            writeln!(
+                s,
+                "| F-score (d = {} m) | {:.1} (P {:.1}, R {:.1}) | {paper} |",
+                key.replace('_', "."),
+                g(&format!("fscore_{key}m")),
+                g(&format!("precision_{key}m")),
+                g(&format!("recall_{key}m"))
+            )?;
+        }
+        writeln!(
+            s,
+            "| rms distance to / from the truth | {:.3} / {:.3} m (cloud {:.3} / {:.3} m) | — |",
+            g("rms_to_truth_m"),
+            g("rms_from_truth_m"),
+            pc["rms_to_truth_m"].as_f64().unwrap_or(f64::NAN),
+            pc["rms_from_truth_m"].as_f64().unwrap_or(f64::NAN)
+        )?;
         writeln!(
             s,
             "| vertices / faces | {} / {} (watertight: {}) | — |",
@@ -421,10 +486,34 @@ fn report_md(r: &serde_json::Value, cmp: &CloudComparison) -> Result<String> {
         )?;
         writeln!(
             s,
-            "\nMesh: screened Poisson depth {}, trimmed below {} × the median support density, sampled at {} points per m² for the metrics.",
-            m["depth"], m["trim_median_fraction"], m["sample_density_per_m2"]
+            "\nMesh: screened Poisson depth {} (cell {:.3} m), trimmed below {:.2} × the median support density, clipped to the imaging region, components under {:.2} of the largest area dropped; {:.1} s. Sampled at {} points per m² for the metrics.",
+            m["depth"],
+            g("cell_m"),
+            g("trim_median_fraction"),
+            g("min_component_fraction"),
+            g("seconds"),
+            m["sample_density_per_m2"]
         )?;
     }
+    let obs = |v: &serde_json::Value, part: &str| {
+        let p = &v["observable_truth"][part];
+        format!(
+            "{:.3} m / {:.1} %",
+            p["rms_from_truth_m"].as_f64().unwrap_or(f64::NAN),
+            p["recall_1_5m"].as_f64().unwrap_or(f64::NAN)
+        )
+    };
+    writeln!(
+        s,
+        "\n{:.1} % of the ground truth is in line of sight of some imaged pair (both legs); the rest can only be inferred. Completeness (rms distance from the truth / recall at 1.5 m): observable part — cloud {}, mesh {}; hidden part — cloud {}, mesh {}.",
+        r["imaging"]["ground_truth"]["observable_pct"]
+            .as_f64()
+            .unwrap_or(f64::NAN),
+        obs(pc, "observable"),
+        obs(m, "observable"),
+        obs(pc, "hidden"),
+        obs(m, "hidden"),
+    )?;
     writeln!(s, "\n## Pairs\n")?;
     writeln!(
         s,
@@ -458,6 +547,9 @@ fn report_md(r: &serde_json::Value, cmp: &CloudComparison) -> Result<String> {
         r["backprojections_per_s"].as_f64().unwrap_or(0.0),
         r["threads"]
     )?;
+    if let Some(p) = r["peak_rss_mib"].as_f64() {
+        writeln!(s, "Peak resident memory {p:.0} MiB.")?;
+    }
     writeln!(
         s,
         "\nGround truth: {} points at {} per m² on {}. Conventions: {}; {}.",

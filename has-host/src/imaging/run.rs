@@ -25,6 +25,8 @@ use glam::Vec3;
 use super::config::ImagingScenario;
 use super::driver::{image_pair, ImagingError, PairImage, PairPlan, RunOptions};
 use super::sensors::{nyquist_spacing_m, pair_resolution_m};
+use rayon::prelude::*;
+
 use crate::echo::{visible_for, ScattererSet};
 use crate::scene::Scene;
 
@@ -334,6 +336,30 @@ pub fn observing_sensors(
                 .filter(|(k, _)| *k < 64 && (m >> k) & 1 == 1)
                 .flat_map(|(_, s)| s.iter().copied())
                 .collect()
+        })
+        .collect()
+}
+
+/// For each ground-truth point, whether some imaged pair could observe it at all: the point sees
+/// the pair's panel centre and at least one of the aperture's start, centre and end (both legs of
+/// the bistatic path in line of sight; a ray into the solid behind the surface is blocked). The
+/// rest of the truth (e.g. valleys of a sawtooth roof below every sensor's line of sight) can only
+/// be inferred by the surface reconstruction, never imaged.
+pub fn observable_truth(sc: &ImagingScenario, world: &World, plans: &[PairPlan]) -> Vec<bool> {
+    let sensors: Vec<(Vec3, [Vec3; 3])> = plans
+        .iter()
+        .map(|p| {
+            let a = sc.aperture(p.aperture, 2);
+            (sc.array(p.bs).centre, [a.start, a.centre(), a.end])
+        })
+        .collect();
+    world
+        .truth
+        .par_iter()
+        .map(|&t| {
+            sensors.iter().any(|(bs, ap)| {
+                world.scene.visible(t, *bs) && ap.iter().any(|&v| world.scene.visible(t, v))
+            })
         })
         .collect()
 }

@@ -20,7 +20,8 @@ use crate::metrics;
 
 pub use normals::{estimate_normals, Orientation};
 pub use poisson::{
-    screened_poisson, support_density, trim, trim_by_density, PoissonOutput, PoissonParams, Trim,
+    depth_for_cell, screened_poisson, support_density, trim, trim_by_density, PoissonOutput,
+    PoissonParams, Trim,
 };
 
 /// An indexed triangle mesh.
@@ -147,6 +148,113 @@ impl TriMesh {
         metrics::sample_mesh(&self.vertices, &self.faces, density_per_m2, seed)
     }
 
+    /// Connected components of the faces (two faces are connected when they share a vertex):
+    /// one label per face, labels 0.. in order of first appearance.
+    pub fn face_components(&self) -> Vec<u32> {
+        fn find(parent: &mut [u32], mut a: u32) -> u32 {
+            while parent[a as usize] != a {
+                let g = parent[parent[a as usize] as usize];
+                parent[a as usize] = g;
+                a = g;
+            }
+            a
+        }
+        let mut parent: Vec<u32> = (0..self.vertices.len() as u32).collect();
+        for f in &self.faces {
+            let a = find(&mut parent, f[0]);
+            for &v in &f[1..] {
+                let b = find(&mut parent, v);
+                if a != b {
+                    parent[b as usize] = a;
+                }
+            }
+        }
+        let mut label = HashMap::new();
+        self.faces
+            .iter()
+            .map(|f| {
+                let root = find(&mut parent, f[0]);
+                let next = label.len() as u32;
+                *label.entry(root).or_insert(next)
+            })
+            .collect()
+    }
+
+    /// Keeps the connected components ([`Self::face_components`]) whose area is at least
+    /// `min_fraction` of the largest component's (Open3D's habit of removing small clusters:
+    /// isolated blobs around ghost points and sidelobes), drops unused vertices.
+    ///
+    /// # Errors
+    /// `min_fraction` outside [0, 1].
+    pub fn remove_small_components(&self, min_fraction: f32) -> Result<TriMesh, GeometryError> {
+        if !(0.0..=1.0).contains(&min_fraction) {
+            return Err(GeometryError::BadParameter {
+                field: "min_component_fraction",
+                value: min_fraction as f64,
+                expected: "in [0, 1]",
+            });
+        }
+        let labels = self.face_components();
+        let n = labels.iter().map(|&l| l as usize + 1).max().unwrap_or(0);
+        let mut area = vec![0.0f64; n];
+        for (f, &l) in self.faces.iter().zip(&labels) {
+            let t = [
+                self.vertices[f[0] as usize],
+                self.vertices[f[1] as usize],
+                self.vertices[f[2] as usize],
+            ];
+            area[l as usize] += metrics::triangle_area(&t) as f64;
+        }
+        let largest = area.iter().copied().fold(0.0, f64::max);
+        let keep: Vec<bool> = area
+            .iter()
+            .map(|&a| a >= min_fraction as f64 * largest)
+            .collect();
+        let mut out = TriMesh {
+            vertices: self.vertices.clone(),
+            faces: self
+                .faces
+                .iter()
+                .zip(&labels)
+                .filter(|(_, &l)| keep[l as usize])
+                .map(|(f, _)| *f)
+                .collect(),
+        };
+        out.remove_unused_vertices();
+        Ok(out)
+    }
+
+    /// Keeps the faces whose three vertices lie inside the axis-aligned box [`min`, `max`]
+    /// (inclusive), drops unused vertices: the mesh is cut back to the region that was imaged,
+    /// removing what the closed Poisson surface invented outside it (e.g. a bottom cap below
+    /// the imaging region).
+    ///
+    /// # Errors
+    /// A bound not finite, or `min` above `max` on some axis (field `"clip_box"`).
+    pub fn clip_to_box(&self, min: Vec3, max: Vec3) -> Result<TriMesh, GeometryError> {
+        for (lo, hi) in min.to_array().into_iter().zip(max.to_array()) {
+            if !(lo.is_finite() && hi.is_finite()) || lo > hi {
+                return Err(GeometryError::BadParameter {
+                    field: "clip_box",
+                    value: if lo.is_finite() { hi as f64 } else { lo as f64 },
+                    expected: "finite bounds with min <= max on every axis",
+                });
+            }
+        }
+        let inside = |v: Vec3| v.cmpge(min).all() && v.cmple(max).all();
+        let mut out = TriMesh {
+            vertices: self.vertices.clone(),
+            faces: self
+                .faces
+                .iter()
+                .copied()
+                .filter(|f| f.iter().all(|&v| inside(self.vertices[v as usize])))
+                .collect(),
+        };
+        out.remove_unused_vertices();
+        Ok(out)
+    }
+
     /// Drops vertices not used by any face and renumbers the faces (kept vertices keep their
     /// relative order).
     pub fn remove_unused_vertices(&mut self) {
@@ -182,6 +290,12 @@ pub struct ReconstructParams {
     pub poisson: PoissonParams,
     /// Density trim ([`Trim`]); `None` keeps the closed surface.
     pub trim: Option<Trim>,
+    /// After trimming, keep only faces inside this box (lower, upper corner, metres; see
+    /// [`TriMesh::clip_to_box`]); `None` keeps everything.
+    pub clip_box: Option<(Vec3, Vec3)>,
+    /// After trimming and clipping, drop connected components smaller than this fraction of the largest
+    /// one's area ([`TriMesh::remove_small_components`]); `None` keeps them all.
+    pub min_component_fraction: Option<f32>,
 }
 
 impl Default for ReconstructParams {
@@ -190,6 +304,8 @@ impl Default for ReconstructParams {
             normal_k: 16,
             poisson: PoissonParams::default(),
             trim: None,
+            clip_box: None,
+            min_component_fraction: None,
         }
     }
 }
@@ -207,7 +323,8 @@ pub struct Reconstruction {
     pub normals_s: f64,
 }
 
-/// Normals → screened Poisson → optional density trim, on an unoriented cloud.
+/// Normals → screened Poisson → optional density trim, clip and small-component removal, on an
+/// unoriented cloud.
 ///
 /// # Errors
 /// As [`estimate_normals`], [`screened_poisson`] and [`trim()`].
@@ -223,6 +340,14 @@ pub fn reconstruct(
     let mesh = match params.trim {
         Some(rule) => trim(&poisson.mesh, &poisson.vertex_density, rule)?,
         None => poisson.mesh.clone(),
+    };
+    let mesh = match params.clip_box {
+        Some((lo, hi)) => mesh.clip_to_box(lo, hi)?,
+        None => mesh,
+    };
+    let mesh = match params.min_component_fraction {
+        Some(f) => mesh.remove_small_components(f)?,
+        None => mesh,
     };
     Ok(Reconstruction {
         mesh,
@@ -264,6 +389,59 @@ mod tests {
         fin.faces.push([0, 1, 2]);
         assert_eq!(fin.topology().nonmanifold_edges, 3);
         assert!((t.area_m2() - (1.5 + 3f64.sqrt() / 2.0)).abs() < 1e-6);
+    }
+
+    #[test]
+    fn small_components_are_dropped_and_large_ones_kept() {
+        // A unit tetrahedron (area ≈ 2.37 m²) and one scaled by 0.1 (area ≈ 0.024 m², 1 %).
+        let big = tetra();
+        let mut m = big.clone();
+        let off = m.vertices.len() as u32;
+        m.vertices
+            .extend(big.vertices.iter().map(|&v| v * 0.1 + Vec3::splat(5.0)));
+        m.faces.extend(
+            big.faces
+                .iter()
+                .map(|f| [f[0] + off, f[1] + off, f[2] + off]),
+        );
+        let labels = m.face_components();
+        assert_eq!(labels, vec![0, 0, 0, 0, 1, 1, 1, 1]);
+        // 2 % of the largest area removes the 1 % tetrahedron, 0.5 % keeps it.
+        let kept = m.remove_small_components(0.02).unwrap();
+        assert_eq!(kept, big);
+        assert_eq!(m.remove_small_components(0.005).unwrap(), m);
+        assert!(m.remove_small_components(1.5).is_err());
+        assert!(m.remove_small_components(f32::NAN).is_err());
+    }
+
+    #[test]
+    fn clip_keeps_faces_inside_the_box_only() {
+        let t = tetra();
+        // The box z ≤ 0.5 excludes vertex 3 (0, 0, 1): only the bottom face remains.
+        let c = t
+            .clip_to_box(Vec3::splat(-1.0), Vec3::new(2.0, 2.0, 0.5))
+            .unwrap();
+        assert_eq!(c.faces, vec![[0, 2, 1]]);
+        assert_eq!(c.vertices.len(), 3);
+        assert_eq!(
+            t.clip_to_box(Vec3::splat(-1.0), Vec3::splat(2.0)).unwrap(),
+            t
+        );
+        assert!(t.clip_to_box(Vec3::ONE, Vec3::ZERO).is_err());
+        assert!(t
+            .clip_to_box(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ONE)
+            .is_err());
+    }
+
+    #[test]
+    fn depth_for_cell_picks_the_coarsest_grid_at_least_as_fine_as_asked() {
+        // Extent 40 m, padding 0.1: cell(d) = 48 / 2^d: d7 = 0.375, d8 = 0.1875.
+        let pts = [Vec3::ZERO, Vec3::new(40.0, 10.0, 5.0)];
+        assert_eq!(depth_for_cell(&pts, 0.1, 0.25), 8);
+        assert_eq!(depth_for_cell(&pts, 0.1, 0.375), 7);
+        assert_eq!(depth_for_cell(&pts, 0.1, 0.5), 7);
+        assert_eq!(depth_for_cell(&pts, 0.1, 1e-6), 10);
+        assert_eq!(depth_for_cell(&pts[..1], 0.1, 0.25), 1);
     }
 
     #[test]

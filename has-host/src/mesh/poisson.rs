@@ -40,6 +40,23 @@ use super::normals::{covariance, symmetric_eigen3};
 use super::TriMesh;
 use crate::knn::{check_points, GeometryError, PointIndex};
 
+/// The smallest depth (1..=10) whose finest cell for `points` (see [`PoissonParams::depth`]) is
+/// at most `cell_m`: e.g. the imaging voxel, so that the grid resolves what the imaging did.
+/// Returns 10 if even depth 10 is coarser, 1 for an empty or single-point cloud.
+pub fn depth_for_cell(points: &[Vec3], padding: f32, cell_m: f32) -> u32 {
+    let (lo, hi) = points.iter().fold(
+        (Vec3::splat(f32::MAX), Vec3::splat(f32::MIN)),
+        |(lo, hi), &p| (lo.min(p), hi.max(p)),
+    );
+    let max_ext = (hi - lo).max_element();
+    if !(max_ext.is_finite() && max_ext > 0.0 && cell_m > 0.0) {
+        return 1;
+    }
+    (1..=10u32)
+        .find(|&d| max_ext * (1.0 + 2.0 * padding) / (1u64 << d) as f32 <= cell_m)
+        .unwrap_or(10)
+}
+
 /// Settings of [`screened_poisson`].
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct PoissonParams {
