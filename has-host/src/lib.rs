@@ -11,6 +11,7 @@ pub mod imaging;
 
 pub use has_dsp::geometry::{bistatic_range, wavelength_m, C_M_PER_S};
 
+pub mod beam;
 pub mod channel;
 pub mod echo;
 pub mod io;
@@ -18,7 +19,9 @@ pub mod knn;
 pub mod material;
 pub mod mesh;
 pub mod metrics;
+pub mod multipath;
 pub mod paths;
+pub mod prediction;
 pub mod propagation;
 pub mod scenario;
 pub mod scene;

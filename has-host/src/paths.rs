@@ -288,6 +288,12 @@ impl Facets {
                 }
             }
         }
+        // The edge map iterates in a random order: sort the neighbour lists so that the region
+        // growing below (and hence the facets of a noisy mesh) is deterministic.
+        for a in &mut adj {
+            a.sort_unstable();
+            a.dedup();
+        }
         let cos_tol = angle_tol_rad.cos();
         let mut order: Vec<u32> = (0..n_tri as u32).collect();
         order.sort_by(|&a, &b| areas[b as usize].total_cmp(&areas[a as usize]));

@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 mod bench_dsp;
 mod bench_paths;
 mod bench_raytrace;
+mod channel_cmd;
 mod mesh_cmd;
 mod paths_cmd;
 mod plot;
@@ -49,6 +50,9 @@ enum Command {
     },
     /// Propagation paths (LOS, specular reflections) between a transmitter and a receiver.
     Paths(paths_cmd::PathsArgs),
+    /// Channel prediction on the digital twin: ray-trace one BS to many UEs on the true scene
+    /// and on the reconstructed mesh, match the multipath sets, report errors and beam selection.
+    Channel(channel_cmd::ChannelArgs),
 }
 
 fn main() {
@@ -67,6 +71,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Scene { cmd } => scene_cmd::run(cmd),
         Command::Bench { cmd } => bench_raytrace::run(cmd),
         Command::Paths(args) => paths_cmd::run(args),
+        Command::Channel(a) => channel_cmd::run(a),
     }
 }
 

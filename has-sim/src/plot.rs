@@ -95,3 +95,78 @@ pub fn projection(
     }
     write_atomic(path, svg)
 }
+
+/// Empirical CDFs (paper Fig. 9 style): one step curve per series `(label, values, colour)`,
+/// x from 0 to the largest value of any series (at least `x_min_max`), y the fraction of values
+/// ≤ x; a dashed line marks the 90th percentile level. Written to `path`.
+pub fn cdf(
+    path: &Path,
+    title: &str,
+    x_label: &str,
+    series: &[(&str, &[f64], RGBColor)],
+    x_min_max: f64,
+) -> Result<()> {
+    let mut x_max = x_min_max;
+    for (_, v, _) in series {
+        for &x in v.iter() {
+            if x.is_finite() {
+                x_max = x_max.max(x);
+            }
+        }
+    }
+    let x_max = if x_max.is_finite() && x_max > 0.0 {
+        x_max * 1.02
+    } else {
+        1.0
+    };
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (800, 560)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let mut chart = ChartBuilder::on(&root)
+            .caption(title, ("sans-serif", 18))
+            .margin(12)
+            .x_label_area_size(40)
+            .y_label_area_size(50)
+            .build_cartesian_2d(0.0..x_max, 0.0..1.0)?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc("CDF")
+            .draw()?;
+        chart.draw_series(DashedLineSeries::new(
+            [(0.0, 0.9), (x_max, 0.9)],
+            6,
+            4,
+            BLACK.mix(0.5).stroke_width(1),
+        ))?;
+        for (label, values, colour) in series {
+            let mut s: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
+            s.sort_by(f64::total_cmp);
+            let n = s.len().max(1) as f64;
+            let mut pts = vec![(0.0, 0.0)];
+            for (i, &x) in s.iter().enumerate() {
+                pts.push((x, i as f64 / n));
+                pts.push((x, (i + 1) as f64 / n));
+            }
+            if let Some(&last) = s.last() {
+                pts.push((x_max.max(last), 1.0));
+            }
+            let c = *colour;
+            chart
+                .draw_series(LineSeries::new(pts, c.stroke_width(2)))?
+                .label(*label)
+                .legend(move |(x, y)| {
+                    PathElement::new(vec![(x, y), (x + 18, y)], c.stroke_width(2))
+                });
+        }
+        chart
+            .configure_series_labels()
+            .position(SeriesLabelPosition::LowerRight)
+            .background_style(WHITE.mix(0.8))
+            .border_style(BLACK)
+            .draw()?;
+        root.present()?;
+    }
+    write_atomic(path, svg)
+}

@@ -217,7 +217,6 @@ fn mesh_stage(
 /// Runs `reconstruct` on `scenario` (default: the bundled factory), with the quick preset if
 /// `quick`, writing everything into `out`, and returns the path of the mesh it wrote
 /// (`out/mesh.obj`): the digital twin that `channel` and `localize` ray-trace when no mesh is given.
-#[allow(dead_code)] // first callers: `channel` and `localize` (issues 6, 7)
 pub fn build_twin(scenario: Option<PathBuf>, out: &Path, quick: bool) -> Result<PathBuf> {
     run(ReconstructArgs {
         scenario,

@@ -39,6 +39,9 @@ pub struct ImagingScenario {
     /// Overrides of `imaging` for `--quick`.
     #[serde(default)]
     pub quick: ImagingOverrides,
+    /// `[channel]`: the channel-prediction experiment (`has-sim channel`), see `crate::prediction`.
+    #[serde(default)]
+    pub channel: Option<crate::prediction::ChannelSpec>,
     /// Directory of the scenario file (mesh paths resolve against it).
     #[serde(skip)]
     pub base_dir: PathBuf,

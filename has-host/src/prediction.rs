@@ -1,0 +1,668 @@
+//! The channel-prediction experiment of a scenario file (paper §2): the `[channel]` table
+//! ([`ChannelSpec`]), its validation, the UE placement and the two scenes that are ray-traced
+//! (the true scene and the digital twin), both all concrete.
+//!
+//! Units as in the rest of the scenario file: metres, degrees, decibels. The UEs are drawn
+//! uniformly (seeded ChaCha8) in the horizontal rectangle `ue_region_min … ue_region_max` at
+//! height `ue_height_m` above z = 0; a draw is rejected when a ray straight up from it hits the
+//! true scene (inside or under a building). The twin is the reconstructed mesh plus the true
+//! scene's `known_objects` (the ground: the imaging region starts 1 m above it, so the ground is
+//! never reconstructed and is taken as known and flat).
+
+use glam::{DVec3, Vec3};
+use rand::{Rng, SeedableRng};
+use serde::{Deserialize, Serialize};
+
+use crate::imaging::ScenarioError;
+use crate::material::Material;
+use crate::scene::{Object, Scene};
+
+/// `[channel]`: one BS, the UEs, the thresholds, the tracer and the codebook.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelSpec {
+    /// BS (transmitter, array centre) `[x, y, z]`, metres.
+    pub bs_position: [f64; 3],
+    /// Azimuth of the BS array normal (horizontal), degrees from +x toward +y: the codebook's
+    /// orientation, facing the served area.
+    pub bs_boresight_deg: f64,
+    /// Number of UEs.
+    #[serde(default = "default_ues")]
+    pub ues: usize,
+    /// UE antenna height above z = 0, metres. Default 1.5.
+    #[serde(default = "default_ue_height")]
+    pub ue_height_m: f64,
+    /// UE region, lower corner `[x, y]`, metres.
+    pub ue_region_min: [f64; 2],
+    /// UE region, upper corner `[x, y]`, metres.
+    pub ue_region_max: [f64; 2],
+    /// Seed of the UE placement.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+    /// Keep a UE if its strongest true path loses less than this, dB. Default 110.
+    #[serde(default = "default_max_loss")]
+    pub max_loss_db: f64,
+    /// Per UE and model keep the paths within this of the strongest, dB. Default 20.
+    #[serde(default = "default_window")]
+    pub window_db: f64,
+    /// Highest reflection order of the tracer (both scenes). Default 3.
+    #[serde(default = "default_order")]
+    pub max_order: usize,
+    /// Shoot-and-bounce rays of the candidate search (both scenes). Default 200 000.
+    #[serde(default = "default_rays")]
+    pub sbr_rays: usize,
+    /// Facet clustering of the tracer (both scenes): largest angle between a triangle's normal
+    /// and its facet's, degrees. Default: the tracer's (15°).
+    #[serde(default = "default_facet_angle")]
+    pub facet_angle_deg: f64,
+    /// Facet clustering (both scenes): largest distance of a vertex from its facet's plane,
+    /// metres. Default: the tracer's (0.15 m).
+    #[serde(default = "default_facet_dist")]
+    pub facet_dist_m: f64,
+    /// Codebook rows (vertical elements). Default 32.
+    #[serde(default = "default_32")]
+    pub codebook_rows: usize,
+    /// Codebook columns (horizontal elements). Default 32.
+    #[serde(default = "default_32")]
+    pub codebook_cols: usize,
+    /// Element spacing, wavelengths. Default 0.5.
+    #[serde(default = "default_spacing")]
+    pub codebook_spacing_wl: f64,
+    /// Matching distance: delay difference counted as one unit, ns. Default 1.
+    #[serde(default = "default_one")]
+    pub match_delay_ns: f64,
+    /// Matching distance: angle difference counted as one unit, degrees. Default 1.
+    #[serde(default = "default_one")]
+    pub match_angle_deg: f64,
+    /// Objects of the true scene added to the twin as known (default: none).
+    #[serde(default)]
+    pub known_objects: Vec<String>,
+    /// Overrides for `--quick`.
+    #[serde(default)]
+    pub quick: ChannelOverrides,
+}
+
+/// `[channel.quick]`: fields of `[channel]` replaced by the `--quick` preset.
+#[derive(Clone, Debug, Default, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ChannelOverrides {
+    /// See [`ChannelSpec::ues`].
+    pub ues: Option<usize>,
+    /// See [`ChannelSpec::max_order`].
+    pub max_order: Option<usize>,
+    /// See [`ChannelSpec::sbr_rays`].
+    pub sbr_rays: Option<usize>,
+}
+
+fn default_ues() -> usize {
+    500
+}
+fn default_ue_height() -> f64 {
+    1.5
+}
+fn default_seed() -> u64 {
+    1
+}
+fn default_max_loss() -> f64 {
+    110.0
+}
+fn default_window() -> f64 {
+    20.0
+}
+fn default_order() -> usize {
+    3
+}
+fn default_rays() -> usize {
+    200_000
+}
+fn default_facet_angle() -> f64 {
+    crate::paths::TracerConfig::default()
+        .facet_angle_tol_rad
+        .to_degrees()
+}
+fn default_facet_dist() -> f64 {
+    crate::paths::TracerConfig::default().facet_dist_tol_m
+}
+fn default_32() -> usize {
+    32
+}
+fn default_spacing() -> f64 {
+    0.5
+}
+fn default_one() -> f64 {
+    1.0
+}
+
+fn invalid(field: &str, value: impl std::fmt::Debug, expected: &'static str) -> ScenarioError {
+    ScenarioError::Invalid {
+        field: format!("channel.{field}"),
+        value: format!("{value:?}"),
+        expected,
+    }
+}
+
+fn positive(field: &str, v: f64) -> Result<(), ScenarioError> {
+    if v.is_finite() && v > 0.0 {
+        Ok(())
+    } else {
+        Err(invalid(field, v, "finite and > 0"))
+    }
+}
+
+impl ChannelSpec {
+    /// Replaces fields by the `[channel.quick]` overrides.
+    pub fn apply_quick(&mut self) {
+        let q = self.quick.clone();
+        if let Some(v) = q.ues {
+            self.ues = v;
+        }
+        if let Some(v) = q.max_order {
+            self.max_order = v;
+        }
+        if let Some(v) = q.sbr_rays {
+            self.sbr_rays = v;
+        }
+    }
+
+    /// Checks every value; the error names the first bad field (`channel.<name>`) and its value.
+    ///
+    /// # Errors
+    /// [`ScenarioError::Invalid`].
+    pub fn validate(&self) -> Result<(), ScenarioError> {
+        if !self.bs_position.iter().all(|x| x.is_finite()) {
+            return Err(invalid(
+                "bs_position",
+                self.bs_position,
+                "finite coordinates",
+            ));
+        }
+        if !self.bs_boresight_deg.is_finite() {
+            return Err(invalid("bs_boresight_deg", self.bs_boresight_deg, "finite"));
+        }
+        if self.ues == 0 {
+            return Err(invalid("ues", self.ues, "at least 1"));
+        }
+        if !(self.ue_height_m.is_finite() && self.ue_height_m >= 0.0) {
+            return Err(invalid("ue_height_m", self.ue_height_m, "finite and >= 0"));
+        }
+        for (f, v) in [
+            ("ue_region_min", self.ue_region_min),
+            ("ue_region_max", self.ue_region_max),
+        ] {
+            if !v.iter().all(|x| x.is_finite()) {
+                return Err(invalid(f, v, "finite coordinates"));
+            }
+        }
+        if (0..2).any(|k| self.ue_region_max[k] <= self.ue_region_min[k]) {
+            return Err(invalid(
+                "ue_region_max",
+                self.ue_region_max,
+                "above ue_region_min on both axes",
+            ));
+        }
+        positive("max_loss_db", self.max_loss_db)?;
+        if !(self.window_db.is_finite() && self.window_db >= 0.0) {
+            return Err(invalid("window_db", self.window_db, "finite and >= 0"));
+        }
+        if self.max_order > crate::paths::MAX_ORDER {
+            return Err(invalid("max_order", self.max_order, "at most 8"));
+        }
+        if self.sbr_rays == 0 {
+            return Err(invalid("sbr_rays", self.sbr_rays, "at least 1"));
+        }
+        for (f, v) in [
+            ("facet_angle_deg", self.facet_angle_deg),
+            ("facet_dist_m", self.facet_dist_m),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(invalid(f, v, "finite and >= 0"));
+            }
+        }
+        if self.codebook_rows == 0 {
+            return Err(invalid("codebook_rows", self.codebook_rows, "at least 1"));
+        }
+        if self.codebook_cols == 0 {
+            return Err(invalid("codebook_cols", self.codebook_cols, "at least 1"));
+        }
+        positive("codebook_spacing_wl", self.codebook_spacing_wl)?;
+        positive("match_delay_ns", self.match_delay_ns)?;
+        positive("match_angle_deg", self.match_angle_deg)?;
+        let q = &self.quick;
+        if q.ues == Some(0) {
+            return Err(invalid("quick.ues", 0, "at least 1"));
+        }
+        if let Some(o) = q.max_order.filter(|&o| o > crate::paths::MAX_ORDER) {
+            return Err(invalid("quick.max_order", o, "at most 8"));
+        }
+        if q.sbr_rays == Some(0) {
+            return Err(invalid("quick.sbr_rays", 0, "at least 1"));
+        }
+        Ok(())
+    }
+
+    /// The BS position.
+    pub fn bs(&self) -> DVec3 {
+        DVec3::from_array(self.bs_position)
+    }
+
+    /// The tracer settings of both scenes at carrier `frequency_hz`: order, SBR rays and facet
+    /// tolerances from this spec, the rest the tracer's defaults (line of sight on, vertical
+    /// polarisation).
+    pub fn tracer_config(&self, frequency_hz: f64) -> crate::paths::TracerConfig {
+        crate::paths::TracerConfig {
+            frequency_hz,
+            max_order: self.max_order,
+            candidates: crate::paths::CandidateMode::Sbr {
+                rays: self.sbr_rays,
+            },
+            facet_angle_tol_rad: self.facet_angle_deg.to_radians(),
+            facet_dist_tol_m: self.facet_dist_m,
+            ..crate::paths::TracerConfig::default()
+        }
+    }
+
+    /// The matching scale of [`crate::multipath`].
+    pub fn match_scale(&self) -> crate::multipath::MatchScale {
+        crate::multipath::MatchScale {
+            delay_s: self.match_delay_ns * 1e-9,
+            angle_rad: self.match_angle_deg.to_radians(),
+        }
+    }
+
+    /// `ues` UE positions (see module docs), deterministic for the seed.
+    ///
+    /// # Errors
+    /// [`ScenarioError::Invalid`] naming `channel.ue_region_min` when fewer than `ues` free
+    /// positions are found in `1000·ues` draws (the region is covered by buildings).
+    pub fn ue_positions(&self, truth: &Scene) -> Result<Vec<DVec3>, ScenarioError> {
+        self.validate()?;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(self.seed);
+        let (lo, hi) = (self.ue_region_min, self.ue_region_max);
+        let mut out = Vec::with_capacity(self.ues);
+        let mut tries = 0usize;
+        while out.len() < self.ues {
+            if tries >= 1000 * self.ues {
+                return Err(invalid(
+                    "ue_region_min",
+                    (lo, hi),
+                    "a region with room for the UEs outside buildings",
+                ));
+            }
+            tries += 1;
+            let x = rng.random_range(lo[0]..hi[0]);
+            let y = rng.random_range(lo[1]..hi[1]);
+            let p = DVec3::new(x, y, self.ue_height_m);
+            if truth
+                .closest_hit(p.as_vec3(), Vec3::Z, 0.0, f32::INFINITY)
+                .is_none()
+            {
+                out.push(p);
+            }
+        }
+        Ok(out)
+    }
+}
+
+/// `objects` with every material set to `material`.
+pub fn with_material(mut objects: Vec<Object>, material: Material) -> Vec<Object> {
+    for o in &mut objects {
+        o.material = material;
+    }
+    objects
+}
+
+/// The twin's objects: the reconstructed `mesh` objects plus the objects of `truth` named in
+/// `known` (renamed `known/<name>` so they never clash with the mesh's names), all `material`.
+///
+/// # Errors
+/// [`ScenarioError::Invalid`] naming `channel.known_objects` for a name that is not an object of
+/// `truth`.
+pub fn twin_objects(
+    mesh: Vec<Object>,
+    truth: &[Object],
+    known: &[String],
+    material: Material,
+) -> Result<Vec<Object>, ScenarioError> {
+    let mut out = mesh;
+    for name in known {
+        let Some(o) = truth.iter().find(|o| &o.name == name) else {
+            return Err(invalid(
+                "known_objects",
+                name,
+                "the name of an object of the scene",
+            ));
+        };
+        let mut o = o.clone();
+        o.name = format!("known/{}", o.name);
+        out.push(o);
+    }
+    Ok(with_material(out, material))
+}
+
+/// The comparison of one UE's link on the two scenes.
+#[derive(Clone, Debug, PartialEq)]
+pub struct UeOutcome {
+    /// Gain of the strongest true path, dB (`None`: no true path).
+    pub strongest_true_db: Option<f64>,
+    /// Kept for the statistics: the strongest true path loses less than `max_loss_db`.
+    pub kept: bool,
+    /// True paths within the window of the strongest true path.
+    pub true_paths: Vec<crate::multipath::PathParams>,
+    /// Twin paths within the window of the strongest twin path.
+    pub twin_paths: Vec<crate::multipath::PathParams>,
+    /// The Chamfer matching of the two windowed sets (empty when not kept or no twin path).
+    pub matches: crate::multipath::ChamferMatch,
+    /// Beam selection (only for kept UEs).
+    pub beam: Option<BeamOutcome>,
+}
+
+/// Beam selection of one UE: the beam picked from the twin's paths judged on the true channel.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct BeamOutcome {
+    /// Best beam on the true channel (all true paths).
+    pub true_best: usize,
+    /// Its gain on the true channel, linear power.
+    pub true_best_gain: f64,
+    /// Beam picked from the twin's paths (`None`: the twin has no path).
+    pub predicted: Option<usize>,
+    /// The true channel's gain on the predicted beam, linear power (0 without a prediction).
+    pub predicted_gain_on_true: f64,
+}
+
+impl BeamOutcome {
+    /// True if the predicted beam is the true best beam.
+    pub fn agrees(&self) -> bool {
+        self.predicted == Some(self.true_best)
+    }
+
+    /// Gain lost on the true channel by using the predicted beam instead of the best, dB (≥ 0;
+    /// infinite without a prediction).
+    pub fn loss_db(&self) -> f64 {
+        if self.predicted.is_none() || self.predicted_gain_on_true <= 0.0 {
+            return f64::INFINITY;
+        }
+        10.0 * (self.true_best_gain / self.predicted_gain_on_true).log10()
+    }
+}
+
+/// Compares one UE's paths on the true scene and on the twin (see [`crate::multipath`] and
+/// [`crate::beam`]): kept if the strongest true path loses less than `spec.max_loss_db`; each
+/// set windowed at `spec.window_db` below its own strongest path; Chamfer matching of the two
+/// windowed sets; beam selection from all paths of each scene.
+///
+/// # Errors
+/// A bad window or matching scale ([`crate::multipath::MultipathError`]).
+pub fn compare_ue(
+    spec: &ChannelSpec,
+    codebook: &crate::beam::DftCodebook,
+    truth: &[crate::paths::Path],
+    twin: &[crate::paths::Path],
+) -> Result<UeOutcome, crate::multipath::MultipathError> {
+    use crate::beam::Ray;
+    use crate::multipath::{chamfer_match, strongest_db, within_window, ChamferMatch, PathParams};
+    let tp: Vec<PathParams> = truth.iter().map(PathParams::from).collect();
+    let wp: Vec<PathParams> = twin.iter().map(PathParams::from).collect();
+    let strongest_true_db = strongest_db(&tp);
+    let kept = strongest_true_db.is_some_and(|g| -g < spec.max_loss_db);
+    let true_paths = within_window(&tp, spec.window_db)?;
+    let twin_paths = within_window(&wp, spec.window_db)?;
+    let mut out = UeOutcome {
+        strongest_true_db,
+        kept,
+        true_paths,
+        twin_paths,
+        matches: ChamferMatch {
+            forward: Vec::new(),
+            backward: Vec::new(),
+        },
+        beam: None,
+    };
+    if !kept {
+        return Ok(out);
+    }
+    out.matches = chamfer_match(&out.true_paths, &out.twin_paths, &spec.match_scale())?;
+    let true_rays: Vec<Ray> = truth.iter().map(Ray::from).collect();
+    let twin_rays: Vec<Ray> = twin.iter().map(Ray::from).collect();
+    let gains = codebook.beam_gains(&true_rays);
+    if let Some((true_best, true_best_gain)) = crate::beam::best_of(&gains) {
+        let predicted = codebook.best_beam(&twin_rays).map(|(b, _)| b);
+        out.beam = Some(BeamOutcome {
+            true_best,
+            true_best_gain,
+            predicted,
+            predicted_gain_on_true: predicted.map_or(0.0, |b| gains[b]),
+        });
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::shapes;
+
+    fn spec() -> ChannelSpec {
+        toml::from_str(
+            r#"
+            bs_position = [-45.0, -40.0, 20.0]
+            bs_boresight_deg = 41.6
+            ue_region_min = [-60.0, -50.0]
+            ue_region_max = [60.0, 50.0]
+            "#,
+        )
+        .unwrap()
+    }
+
+    fn factory_scene() -> Scene {
+        let g = shapes::ground(
+            "yard",
+            Material::Concrete,
+            glam::Vec2::new(-100.0, -100.0),
+            glam::Vec2::new(100.0, 100.0),
+            0.0,
+            (1, 1),
+        )
+        .unwrap();
+        let b = shapes::axis_box(
+            "hall",
+            Material::Concrete,
+            Vec3::new(-20.0, -12.0, 0.0),
+            Vec3::new(20.0, 12.0, 8.0),
+        )
+        .unwrap();
+        Scene::new(vec![g, b]).unwrap()
+    }
+
+    #[test]
+    fn defaults_are_the_papers() {
+        let s = spec();
+        assert_eq!(s.ues, 500);
+        assert_eq!(s.ue_height_m, 1.5);
+        assert_eq!(s.max_loss_db, 110.0);
+        assert_eq!(s.window_db, 20.0);
+        assert_eq!((s.codebook_rows, s.codebook_cols), (32, 32));
+        assert_eq!(s.codebook_spacing_wl, 0.5);
+        s.validate().unwrap();
+    }
+
+    #[test]
+    fn ues_are_seeded_outside_buildings_in_the_region() {
+        let scene = factory_scene();
+        let s = spec();
+        let a = s.ue_positions(&scene).unwrap();
+        assert_eq!(a.len(), 500);
+        assert_eq!(a, s.ue_positions(&scene).unwrap(), "deterministic");
+        for p in &a {
+            assert!((-60.0..60.0).contains(&p.x) && (-50.0..50.0).contains(&p.y));
+            assert_eq!(p.z, 1.5);
+            let inside = p.x.abs() <= 20.0 && p.y.abs() <= 12.0;
+            assert!(!inside, "{p} is inside the hall");
+        }
+        let mut other = s.clone();
+        other.seed = 2;
+        assert_ne!(a, other.ue_positions(&scene).unwrap());
+        // A region entirely under the hall has no room.
+        let mut full = s;
+        full.ue_region_min = [-10.0, -5.0];
+        full.ue_region_max = [10.0, 5.0];
+        let e = full.ue_positions(&scene).unwrap_err().to_string();
+        assert!(e.starts_with("channel.ue_region_min"), "{e}");
+    }
+
+    #[test]
+    fn bad_values_name_field_and_value() {
+        type Edit = Box<dyn Fn(&mut ChannelSpec)>;
+        let cases: Vec<(Edit, &str)> = vec![
+            (
+                Box::new(|s| s.bs_position[1] = f64::NAN),
+                "channel.bs_position: [-45.0, NaN, 20.0]",
+            ),
+            (Box::new(|s| s.ues = 0), "channel.ues: 0"),
+            (
+                Box::new(|s| s.max_loss_db = -3.0),
+                "channel.max_loss_db: -3.0",
+            ),
+            (
+                Box::new(|s| s.window_db = f64::NAN),
+                "channel.window_db: NaN",
+            ),
+            (Box::new(|s| s.window_db = -1.0), "channel.window_db: -1.0"),
+            (
+                Box::new(|s| s.ue_region_max = [60.0, -50.0]),
+                "channel.ue_region_max: [60.0, -50.0]",
+            ),
+            (
+                Box::new(|s| s.ue_height_m = f64::INFINITY),
+                "channel.ue_height_m: inf",
+            ),
+            (Box::new(|s| s.max_order = 9), "channel.max_order: 9"),
+            (Box::new(|s| s.sbr_rays = 0), "channel.sbr_rays: 0"),
+            (
+                Box::new(|s| s.codebook_rows = 0),
+                "channel.codebook_rows: 0",
+            ),
+            (
+                Box::new(|s| s.match_angle_deg = 0.0),
+                "channel.match_angle_deg: 0.0",
+            ),
+            (Box::new(|s| s.quick.ues = Some(0)), "channel.quick.ues: 0"),
+        ];
+        for (edit, want) in cases {
+            let mut s = spec();
+            edit(&mut s);
+            let e = s.validate().unwrap_err().to_string();
+            assert!(e.starts_with(want), "{e} (want {want})");
+        }
+    }
+
+    #[test]
+    fn unknown_field_is_rejected_by_name() {
+        let e = toml::from_str::<ChannelSpec>(
+            "bs_position = [0.0, 0.0, 1.0]\nbs_boresight_deg = 0.0\nue_region_min = [0.0, 0.0]\nue_region_max = [1.0, 1.0]\nwindow = 3\n",
+        )
+        .unwrap_err()
+        .to_string();
+        assert!(e.contains("window"), "{e}");
+    }
+
+    #[test]
+    fn twin_adds_known_objects_all_concrete() {
+        let scene = factory_scene();
+        let mesh = vec![Object {
+            name: "mesh".into(),
+            material: Material::Glass,
+            triangles: vec![[Vec3::ZERO, Vec3::X, Vec3::Y]],
+        }];
+        let t = twin_objects(
+            mesh.clone(),
+            &scene.objects,
+            &["yard".into()],
+            Material::Concrete,
+        )
+        .unwrap();
+        let names: Vec<&str> = t.iter().map(|o| o.name.as_str()).collect();
+        assert_eq!(names, ["mesh", "known/yard"]);
+        assert!(t.iter().all(|o| o.material == Material::Concrete));
+        let e = twin_objects(mesh, &scene.objects, &["road".into()], Material::Concrete)
+            .unwrap_err()
+            .to_string();
+        assert!(e.starts_with("channel.known_objects: \"road\""), "{e}");
+    }
+
+    fn path(
+        delay_ns: f64,
+        gain_db: f64,
+        aod_deg: f64,
+        zod_deg: f64,
+        reflections: &[u32],
+    ) -> crate::paths::Path {
+        use crate::paths::Interaction;
+        let amp = 10f64.powf(gain_db / 20.0);
+        let interactions = if reflections.is_empty() {
+            vec![Interaction::Los]
+        } else {
+            reflections
+                .iter()
+                .map(|&object| Interaction::Reflection {
+                    object,
+                    facet: 0,
+                    point: DVec3::ZERO,
+                })
+                .collect()
+        };
+        crate::paths::Path {
+            delay_s: delay_ns * 1e-9,
+            length_m: delay_ns * 1e-9 * crate::C_M_PER_S,
+            a: num_complex::Complex64::new(amp, 0.0),
+            jones: [[num_complex::Complex64::new(0.0, 0.0); 2]; 2],
+            aod: aod_deg.to_radians(),
+            zod: zod_deg.to_radians(),
+            aoa: (aod_deg + 180.0).to_radians(),
+            zoa: (180.0 - zod_deg).to_radians(),
+            interactions,
+        }
+    }
+
+    #[test]
+    fn identical_twin_has_zero_errors_and_agreeing_beam() {
+        let s = spec();
+        let cb =
+            crate::beam::DftCodebook::new(32, 32, 0.5, s.bs_boresight_deg.to_radians()).unwrap();
+        let truth = [
+            path(200.0, -80.0, 40.0, 95.0, &[]),
+            path(203.0, -86.0, 40.0, 100.0, &[0]),
+            path(260.0, -99.0, 70.0, 94.0, &[1]),
+            // 25 dB below the strongest: outside the 20 dB window.
+            path(300.0, -105.0, 10.0, 93.0, &[1, 0]),
+        ];
+        let o = compare_ue(&s, &cb, &truth, &truth).unwrap();
+        assert!(o.kept);
+        assert_eq!(o.strongest_true_db, Some(-80.0));
+        assert_eq!(o.true_paths.len(), 3);
+        assert_eq!(o.true_paths[2].objects(), &[1]);
+        assert_eq!(o.matches.forward.len(), 3);
+        assert_eq!(o.matches.backward.len(), 3);
+        assert!(o.matches.all().all(|m| m.distance == 0.0 && m.from == m.to));
+        let b = o.beam.unwrap();
+        assert!(b.agrees());
+        assert_eq!(b.loss_db(), 0.0);
+    }
+
+    #[test]
+    fn weak_ue_is_dropped_and_empty_twin_loses_the_beam() {
+        let s = spec();
+        let cb = crate::beam::DftCodebook::new(32, 32, 0.5, 0.0).unwrap();
+        // Strongest path loses exactly 110 dB: not "< 110 dB", dropped.
+        let weak = [path(500.0, -110.0, 40.0, 95.0, &[])];
+        let o = compare_ue(&s, &cb, &weak, &weak).unwrap();
+        assert!(!o.kept && o.beam.is_none() && o.matches.forward.is_empty());
+        let o = compare_ue(&s, &cb, &[], &[]).unwrap();
+        assert!(!o.kept && o.strongest_true_db.is_none());
+        let ok = [path(500.0, -109.9, 40.0, 95.0, &[])];
+        let o = compare_ue(&s, &cb, &ok, &[]).unwrap();
+        assert!(o.kept && o.matches.forward.is_empty() && o.twin_paths.is_empty());
+        let b = o.beam.unwrap();
+        assert!(!b.agrees() && b.predicted.is_none());
+        assert_eq!(b.loss_db(), f64::INFINITY);
+    }
+}

@@ -1,0 +1,153 @@
+//! End to end, as a user runs it: `has-sim channel --quick` on the bundled factory scenario
+//! (which reconstructs its quick twin first) writes every output with the documented keys and
+//! the numbers its preset is measured to give. Bad `[channel]` input ends the process with one
+//! readable line naming the field and the value, before any reconstruction.
+
+use std::path::PathBuf;
+use std::process::Command;
+
+fn out_dir(name: &str) -> PathBuf {
+    let d = std::env::temp_dir().join(format!(
+        "has-sim-test-channel-{name}-{}",
+        std::process::id()
+    ));
+    let _ = std::fs::remove_dir_all(&d);
+    d
+}
+
+#[test]
+fn quick_channel_prediction_reports_errors_beams_and_plots() {
+    let out = out_dir("quick");
+    let status = Command::new(env!("CARGO_BIN_EXE_has-sim"))
+        .args(["channel", "--quick", "--out"])
+        .arg(&out)
+        .status()
+        .expect("has-sim runs");
+    assert!(status.success());
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.join("report.json")).expect("report.json"))
+            .expect("valid JSON");
+    let c = &report["channel"];
+    let ues = &c["ues"];
+    assert_eq!(ues["total"].as_u64(), Some(100));
+    let kept = ues["kept"].as_u64().expect("kept");
+    assert_eq!(kept + ues["dropped"].as_u64().expect("dropped"), 100);
+    // The quick run (100 UEs, order 2) measured 73 kept UEs: every UE in view of the BS keeps its
+    // line of sight (< 110 dB up to ~760 m at 10 GHz), the dropped ones are in the hall's shadow
+    // with no reflected path either (no diffraction). The UE draw and the true scene do not depend
+    // on the twin, so this count is exact.
+    assert_eq!(kept, 73);
+    let p = &c["paths"];
+    assert_eq!(
+        p["true_kept"].as_u64(),
+        Some(142),
+        "true-scene paths are exact"
+    );
+    let fwd = p["matched_true_to_twin"].as_u64().expect("forward pairs");
+    assert_eq!(
+        fwd, 142,
+        "every kept true path is paired (the twin has paths for every kept UE)"
+    );
+    for q in ["p50", "p90", "p95"] {
+        for k in ["delay_ns", "aoa_deg", "aod_deg", "zoa_deg", "zod_deg"] {
+            let v = c[q][k].as_f64().unwrap_or(f64::NAN);
+            assert!(v.is_finite() && v >= 0.0, "channel.{q}.{k} = {v}");
+        }
+    }
+    // Line of sight and the ground bounce (the ground is known to the twin) are identical in both
+    // models whenever the twin does not block them; they are most of the kept paths (73 + ~60 of
+    // 142), so the 90th percentile of every error is exactly 0 on the quick twin. It becomes
+    // non-zero only if the twin wrongly blocks or adds >10 % of the paths.
+    for k in ["delay_ns", "aoa_deg", "aod_deg", "zoa_deg", "zod_deg"] {
+        let v = c["p90"][k].as_f64().unwrap_or(f64::NAN);
+        assert!(v < 1e-6, "channel.p90.{k} = {v}");
+    }
+    // Beam selection measured 95.9 % (70 of 73): the true best beam is set by the line of sight,
+    // which the twin reproduces; a regression that loses lines of sight fails this.
+    let agree = c["beam"]["agreement_pct"].as_f64().expect("agreement_pct");
+    assert!(agree >= 90.0, "beam agreement {agree} %");
+    assert!(c["paths_per_s"]["true"].as_f64().unwrap_or(0.0) > 0.0);
+    let csv = std::fs::read_to_string(out.join("errors.csv")).expect("errors.csv");
+    let rows = csv.lines().count() - 1;
+    assert_eq!(rows as u64, c["count"].as_u64().expect("count"));
+    for f in [
+        "report.md",
+        "cdf_delay.svg",
+        "cdf_angles.svg",
+        "ue_map.svg",
+        "twin/mesh.obj",
+    ] {
+        let len = std::fs::metadata(out.join(f)).map(|m| m.len()).unwrap_or(0);
+        assert!(len > 100, "{f} missing or empty");
+    }
+    let _ = std::fs::remove_dir_all(&out);
+}
+
+/// Runs `channel` on `text` written to a file; returns (success, stderr).
+fn channel_text(dir: &std::path::Path, text: &str) -> (bool, String) {
+    let bad = dir.join("bad.toml");
+    std::fs::write(&bad, text).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_has-sim"))
+        .args(["channel"])
+        .arg(&bad)
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .expect("has-sim runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn bad_channel_table_fails_with_one_line_naming_field_and_value() {
+    let dir = out_dir("bad");
+    std::fs::create_dir_all(&dir).unwrap();
+    let factory = include_str!("../../fixtures/factory.toml");
+    for (from, to, want) in [
+        (
+            "bs_position = [-45.0, -40.0, 20.0]",
+            "bs_position = [-45.0, nan, 20.0]",
+            "channel.bs_position: [-45.0, NaN, 20.0]",
+        ),
+        ("ues = 500", "ues = 0", "channel.ues: 0"),
+        (
+            "max_loss_db = 110.0",
+            "max_loss_db = -110.0",
+            "channel.max_loss_db: -110.0",
+        ),
+        (
+            "window_db = 20.0",
+            "window_db = nan",
+            "channel.window_db: NaN",
+        ),
+        ("seed = 7", "seed = 7\nbogus = 1", "bogus"),
+    ] {
+        assert!(factory.contains(from), "{from}");
+        let (ok, err) = channel_text(&dir, &factory.replacen(from, to, 1));
+        assert!(!ok, "{to}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains(want), "{err} (want {want})");
+    }
+    // A scenario without a [channel] table.
+    let cut = factory.find("[channel]").unwrap();
+    let (ok, err) = channel_text(&dir, &factory[..cut]);
+    assert!(!ok);
+    assert!(err.contains("no [channel] table"), "{err}");
+    // A twin that does not exist.
+    let out = Command::new(env!("CARGO_BIN_EXE_has-sim"))
+        .args(["channel", "--twin"])
+        .arg(dir.join("missing.obj"))
+        .arg("--out")
+        .arg(dir.join("out"))
+        .output()
+        .expect("has-sim runs");
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("--twin") && err.contains("missing.obj"),
+        "{err}"
+    );
+    let _ = std::fs::remove_dir_all(&dir);
+}
