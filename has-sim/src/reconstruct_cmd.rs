@@ -23,6 +23,10 @@ pub const FACTORY_TOML: &str = include_str!("../../fixtures/factory.toml");
 /// Connected components of the mesh below this fraction of the largest one's area are dropped
 /// (blobs around ghost points).
 pub const MESH_MIN_COMPONENT_FRACTION: f32 = 0.02;
+/// Margin of the visibility-consistency filter, in imaging voxels: a leg counts as blocked only
+/// if the first-pass surface is hit this far before the point (the cloud is a shell about a
+/// resolution cell thick).
+pub const VISIBILITY_MARGIN_VOXELS: f32 = 4.0;
 /// Default density trim, fraction of the median vertex support density.
 pub const DEFAULT_MESH_TRIM_MEDIAN: f32 = 0.25;
 
@@ -51,6 +55,10 @@ pub struct ReconstructArgs {
     /// Density trim of the mesh, fraction of the median vertex support density.
     #[arg(long, default_value_t = DEFAULT_MESH_TRIM_MEDIAN)]
     pub mesh_trim_median: f32,
+    /// Mesh every fused point, without first removing the points a coarser first-pass surface
+    /// hides from every sensor that observed them (ghosts).
+    #[arg(long)]
+    pub no_visibility_filter: bool,
     /// Skip surface reconstruction.
     #[arg(long)]
     pub no_mesh: bool,
@@ -121,7 +129,8 @@ fn mesh_stage(
     observable: &[bool],
 ) -> Result<serde_json::Value> {
     use has_host::mesh::{
-        depth_for_cell, reconstruct, Orientation, PoissonParams, ReconstructParams, Trim,
+        depth_for_cell, reconstruct, visibility_consistent, Orientation, PoissonParams,
+        ReconstructParams, Trim,
     };
     if !(args.mesh_trim_median > 0.0 && args.mesh_trim_median <= 1.0) {
         anyhow::bail!(
@@ -149,19 +158,41 @@ fn mesh_stage(
         min_component_fraction: Some(MESH_MIN_COMPONENT_FRACTION),
         ..ReconstructParams::default()
     };
-    let rec = reconstruct(
-        &result.fused.points,
-        Orientation::SensorSets(&sensors),
-        &params,
-    )
-    .context("surface reconstruction")?;
+    // Visibility consistency: a first, one level coarser surface; points it hides from every
+    // sensor that observed them are ghosts (see has_host::mesh::visibility) and are left out of
+    // the final surface.
+    let mut points = result.fused.points.clone();
+    let mut sensors = sensors;
+    let margin = VISIBILITY_MARGIN_VOXELS * sc.imaging.voxel_m;
+    let mut ghosts = 0;
+    if !args.no_visibility_filter {
+        let coarse = ReconstructParams {
+            poisson: PoissonParams {
+                depth: depth.saturating_sub(1).max(1),
+                ..params.poisson.clone()
+            },
+            ..params.clone()
+        };
+        let first = reconstruct(&points, Orientation::SensorSets(&sensors), &coarse)
+            .context("surface reconstruction (first pass)")?;
+        let observers = imaging::observing_pairs(sc, &result.plans, &result.fused);
+        let keep = visibility_consistent(&points, &observers, &first.mesh, margin)
+            .context("visibility consistency")?;
+        ghosts = keep.iter().filter(|&&k| !k).count();
+        let mut k = keep.iter();
+        points.retain(|_| *k.next().unwrap_or(&true));
+        let mut k = keep.iter();
+        sensors.retain(|_| *k.next().unwrap_or(&true));
+    }
+    let rec = reconstruct(&points, Orientation::SensorSets(&sensors), &params)
+        .context("surface reconstruction")?;
     let seconds = t.elapsed().as_secs_f64();
     // The oriented input of the mesher, so that `has-sim mesh mesh_input.ply` reproduces (and
     // can vary) this stage without rerunning the imaging.
     let n = &rec.normals;
     write_cloud(
         &args.out.join("mesh_input.ply"),
-        &result.fused.points,
+        &points,
         vec![
             ("nx", n.iter().map(|v| v.x).collect()),
             ("ny", n.iter().map(|v| v.y).collect()),
@@ -182,6 +213,11 @@ fn mesh_stage(
     m["cell_m"] = json!(rec.poisson.cell_m);
     m["clip_box"] = json!([region.0.to_array(), region.1.to_array()]);
     m["min_component_fraction"] = json!(MESH_MIN_COMPONENT_FRACTION);
+    m["visibility_filter"] = if args.no_visibility_filter {
+        json!(null)
+    } else {
+        json!({"margin_m": margin, "removed_points": ghosts, "input_points": result.fused.points.len()})
+    };
     m["trim_median_fraction"] = json!(args.mesh_trim_median);
     m["sample_density_per_m2"] = json!(density);
     m["seconds"] = json!(seconds);
@@ -226,6 +262,7 @@ pub fn build_twin(scenario: Option<PathBuf>, out: &Path, quick: bool) -> Result<
         raw_ofdm: false,
         mesh_depth: None,
         mesh_trim_median: DEFAULT_MESH_TRIM_MEDIAN,
+        no_visibility_filter: false,
         no_mesh: false,
     })
     .context("reconstructing the digital twin")?;
@@ -493,6 +530,16 @@ fn report_md(r: &serde_json::Value, cmp: &CloudComparison) -> Result<String> {
             g("seconds"),
             m["sample_density_per_m2"]
         )?;
+    }
+    if !m.is_null() {
+        let v = &m["visibility_filter"];
+        if !v.is_null() {
+            writeln!(
+                s,
+                "Visibility consistency: {} of {} fused points were hidden by a first-pass surface from every sensor that observed them (margin {} m) and were left out of the mesh.",
+                v["removed_points"], v["input_points"], v["margin_m"]
+            )?;
+        }
     }
     let obs = |v: &serde_json::Value, part: &str| {
         let p = &v["observable_truth"][part];

@@ -315,16 +315,16 @@ pub fn fuse(
     out
 }
 
-/// For each fused point, the positions of the sensors (panel centre and aperture centre of every
-/// pair) that observed it: what surface normals are oriented toward.
-pub fn observing_sensors(
+/// For each fused point, the (aperture centre, panel centre) of every pair that observed it: the
+/// transmitter and receiver of its echo.
+pub fn observing_pairs(
     sc: &ImagingScenario,
     plans: &[PairPlan],
     fused: &FusedCloud,
-) -> Vec<Vec<Vec3>> {
+) -> Vec<Vec<[Vec3; 2]>> {
     let per_pair: Vec<[Vec3; 2]> = plans
         .iter()
-        .map(|p| [sc.array(p.bs).centre, sc.aperture(p.aperture, 2).centre()])
+        .map(|p| [sc.aperture(p.aperture, 2).centre(), sc.array(p.bs).centre])
         .collect();
     fused
         .pair_mask
@@ -334,9 +334,22 @@ pub fn observing_sensors(
                 .iter()
                 .enumerate()
                 .filter(|(k, _)| *k < 64 && (m >> k) & 1 == 1)
-                .flat_map(|(_, s)| s.iter().copied())
+                .map(|(_, s)| *s)
                 .collect()
         })
+        .collect()
+}
+
+/// For each fused point, the positions of the sensors (panel centre and aperture centre of every
+/// pair) that observed it: what surface normals are oriented toward.
+pub fn observing_sensors(
+    sc: &ImagingScenario,
+    plans: &[PairPlan],
+    fused: &FusedCloud,
+) -> Vec<Vec<Vec3>> {
+    observing_pairs(sc, plans, fused)
+        .into_iter()
+        .map(|pairs| pairs.into_iter().flat_map(|[tx, rx]| [rx, tx]).collect())
         .collect()
 }
 

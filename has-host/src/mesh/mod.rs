@@ -10,6 +10,7 @@
 pub mod iso;
 pub mod normals;
 pub mod poisson;
+pub mod visibility;
 
 use std::collections::HashMap;
 
@@ -23,6 +24,7 @@ pub use poisson::{
     depth_for_cell, screened_poisson, support_density, trim, trim_by_density, PoissonOutput,
     PoissonParams, Trim,
 };
+pub use visibility::visibility_consistent;
 
 /// An indexed triangle mesh.
 #[derive(Clone, Debug, Default, PartialEq)]
