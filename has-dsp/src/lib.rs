@@ -12,6 +12,7 @@
 #![cfg_attr(not(test), no_std)]
 
 pub mod bp;
+pub mod cfar;
 pub mod eca;
 pub mod error;
 pub mod fft;

@@ -16,6 +16,7 @@ pub mod channel;
 pub mod echo;
 pub mod io;
 pub mod knn;
+pub mod localize;
 pub mod material;
 pub mod mesh;
 pub mod metrics;

@@ -10,6 +10,7 @@ mod bench_dsp;
 mod bench_paths;
 mod bench_raytrace;
 mod channel_cmd;
+mod localize_cmd;
 mod mesh_cmd;
 mod paths_cmd;
 mod plot;
@@ -53,6 +54,9 @@ enum Command {
     /// Channel prediction on the digital twin: ray-trace one BS to many UEs on the true scene
     /// and on the reconstructed mesh, match the multipath sets, report errors and beam selection.
     Channel(channel_cmd::ChannelArgs),
+    /// Moving-target sensing by a monostatic base station: ECA vs the environment prior from the
+    /// reconstructed twin (paper §3); report, detections PLY, Fig. 11-style plots.
+    Localize(localize_cmd::LocalizeArgs),
 }
 
 fn main() {
@@ -72,6 +76,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Bench { cmd } => bench_raytrace::run(cmd),
         Command::Paths(args) => paths_cmd::run(args),
         Command::Channel(a) => channel_cmd::run(a),
+        Command::Localize(a) => localize_cmd::run(a),
     }
 }
 

@@ -170,3 +170,88 @@ pub fn cdf(
     }
     write_atomic(path, svg)
 }
+
+/// A heat map of `values` (row-major `[iy][ix]`, `nx · ny` cells, in dB) over the axis ranges
+/// `x` and `y`, clipped to `[vmin, vmax]` and coloured from dark blue (vmin) through green to
+/// yellow (vmax), written to `path`. Used for range–Doppler maps.
+#[allow(clippy::too_many_arguments)]
+pub fn heatmap(
+    path: &Path,
+    title: &str,
+    (x_label, y_label): (&str, &str),
+    x: (f64, f64),
+    y: (f64, f64),
+    (nx, ny): (usize, usize),
+    values: &[f32],
+    (vmin, vmax): (f32, f32),
+) -> Result<()> {
+    if values.len() != nx * ny || nx == 0 || ny == 0 {
+        anyhow::bail!(
+            "heatmap {}: {} values for {nx} × {ny} cells",
+            path.display(),
+            values.len()
+        );
+    }
+    let colour = |v: f32| -> RGBColor {
+        let t = ((v - vmin) / (vmax - vmin).max(1e-6)).clamp(0.0, 1.0);
+        // A viridis-like ramp through four anchors.
+        let anchors = [
+            (68.0, 1.0, 84.0),
+            (59.0, 82.0, 139.0),
+            (33.0, 145.0, 140.0),
+            (253.0, 231.0, 37.0),
+        ];
+        let s = t * 3.0;
+        let i = (s.floor() as usize).min(2);
+        let f = s - i as f32;
+        let (a, b) = (anchors[i], anchors[i + 1]);
+        let l = |p: f32, q: f32| (p + (q - p) * f) as u8;
+        RGBColor(l(a.0, b.0), l(a.1, b.1), l(a.2, b.2))
+    };
+    let mut svg = String::new();
+    {
+        let root = SVGBackend::with_string(&mut svg, (900, 600)).into_drawing_area();
+        root.fill(&WHITE)?;
+        let (main, bar) = root.split_horizontally(800);
+        let mut chart = ChartBuilder::on(&main)
+            .caption(title, ("sans-serif", 16))
+            .margin(10)
+            .x_label_area_size(35)
+            .y_label_area_size(50)
+            .build_cartesian_2d(x.0..x.1, y.0..y.1)?;
+        chart
+            .configure_mesh()
+            .x_desc(x_label)
+            .y_desc(y_label)
+            .disable_mesh()
+            .draw()?;
+        let (dx, dy) = ((x.1 - x.0) / nx as f64, (y.1 - y.0) / ny as f64);
+        chart.draw_series((0..ny).flat_map(|iy| {
+            (0..nx).map(move |ix| {
+                let v = values[iy * nx + ix];
+                let (x0, y0) = (x.0 + ix as f64 * dx, y.0 + iy as f64 * dy);
+                Rectangle::new([(x0, y0), (x0 + dx, y0 + dy)], colour(v).filled())
+            })
+        }))?;
+        let mut cb = ChartBuilder::on(&bar)
+            .margin_top(40)
+            .margin_bottom(45)
+            .margin_right(45)
+            .y_label_area_size(0)
+            .right_y_label_area_size(40)
+            .build_cartesian_2d(0.0..1.0, vmin as f64..vmax as f64)?
+            .set_secondary_coord(0.0..1.0, vmin as f64..vmax as f64);
+        cb.configure_secondary_axes().y_desc("dB").draw()?;
+        let steps = 64;
+        let h = (vmax - vmin) as f64 / steps as f64;
+        cb.draw_series((0..steps).map(|i| {
+            let v0 = vmin as f64 + i as f64 * h;
+            Rectangle::new(
+                [(0.0, v0), (1.0, v0 + h)],
+                colour(v0 as f32 + 0.5 * h as f32).filled(),
+            )
+        }))?;
+        root.present()?;
+    }
+    write_atomic(path, svg)
+}

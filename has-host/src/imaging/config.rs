@@ -42,6 +42,9 @@ pub struct ImagingScenario {
     /// `[channel]`: the channel-prediction experiment (`has-sim channel`), see `crate::prediction`.
     #[serde(default)]
     pub channel: Option<crate::prediction::ChannelSpec>,
+    /// `[localize]`: the moving-target experiment (`has-sim localize`), if the scenario has one.
+    #[serde(default)]
+    pub localize: Option<crate::localize::LocalizeSpec>,
     /// Directory of the scenario file (mesh paths resolve against it).
     #[serde(skip)]
     pub base_dir: PathBuf,

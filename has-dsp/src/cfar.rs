@@ -1,0 +1,313 @@
+//! Cell-averaging constant-false-alarm-rate detection (CA-CFAR) along one line of power cells
+//! (range, Doppler, ...), in `f32`, into caller-owned buffers.
+//!
+//! For cell `i` of a line of square-law powers `x` (`|z|²`, linear units), the noise level is the
+//! mean of the *training* cells: `train` cells on each side, separated from the cell under test by
+//! `guard` cells on each side. With `N` training cells and their sum `S`, the threshold is
+//!
+//! `T_i = (pfa^{−1/N} − 1) · S`,
+//!
+//! i.e. `α/N · S` with the classic CA-CFAR factor `α = N·(pfa^{−1/N} − 1)` (Finn & Johnson 1968;
+//! Richards, *Fundamentals of Radar Signal Processing*, §6.5). For independent exponentially
+//! distributed noise powers (complex Gaussian noise through a square-law detector) the
+//! probability that `x_i > T_i` is then exactly `(1 + α/N)^{−N} = pfa`, whatever the noise power.
+//!
+//! **Edges.** Near the ends of the line the training window is truncated to the cells that exist
+//! (`N` between `train` and `2·train`) and `α` is recomputed for that `N`, so the false-alarm
+//! probability stays `pfa` at every cell. A line must hold at least `2·(guard + train) + 1` cells,
+//! which guarantees `N ≥ train` everywhere.
+//!
+//! **Arithmetic.** Window sums slide in `f64` (one add and one subtract per side and cell, no
+//! drift worth counting for lines up to 2³² cells); the threshold is rounded to `f32` once.
+//! `pfa^{−1/N}` is computed with `libm` once per possible `N` when the detector is configured.
+
+use crate::error::{check_len, DspError};
+
+/// Largest supported number of training cells per side.
+pub const MAX_CFAR_TRAIN: usize = 64;
+
+/// A validated CA-CFAR configuration (`&self` only; the caller owns every buffer).
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[cfg_attr(feature = "defmt", derive(defmt::Format))]
+pub struct CaCfar {
+    train: usize,
+    guard: usize,
+    pfa: f64,
+    /// `pfa^{−1/(2·train)} − 1`, the factor of the full window.
+    full_factor: f64,
+    /// `pfa^{−1/n} − 1` for `n = train + i` (truncated windows at the edges), `i ≤ train`.
+    edge: [f64; MAX_CFAR_TRAIN + 1],
+}
+
+impl CaCfar {
+    /// `train` (1 … [`MAX_CFAR_TRAIN`]) training cells and `guard` guard cells on each side of the cell under test,
+    /// design false-alarm probability `pfa` in (0, 1).
+    ///
+    /// # Errors
+    /// [`DspError::UnsupportedLength`] (`cfar.train`) for `train = 0` or above
+    /// [`MAX_CFAR_TRAIN`]; [`DspError::OutOfRange`]
+    /// (`cfar.pfa`) for a `pfa` outside (0, 1) or not finite.
+    pub fn new(train: usize, guard: usize, pfa: f64) -> Result<Self, DspError> {
+        if train == 0 || train > MAX_CFAR_TRAIN {
+            return Err(DspError::UnsupportedLength {
+                what: "cfar.train (1 … 64)",
+                len: train,
+            });
+        }
+        if !(pfa.is_finite() && pfa > 0.0 && pfa < 1.0) {
+            return Err(DspError::OutOfRange {
+                what: "cfar.pfa (0 < pfa < 1)",
+                value: pfa as f32,
+            });
+        }
+        let mut edge = [0.0; MAX_CFAR_TRAIN + 1];
+        for (i, e) in edge.iter_mut().enumerate().take(train + 1) {
+            *e = Self::factor_for(pfa, train + i);
+        }
+        Ok(Self {
+            train,
+            guard,
+            pfa,
+            full_factor: edge[train],
+            edge,
+        })
+    }
+
+    /// `pfa^{−1/n} − 1`.
+    fn factor_for(pfa: f64, n: usize) -> f64 {
+        libm::pow(pfa, -1.0 / n as f64) - 1.0
+    }
+
+    /// Training cells per side.
+    pub fn train(&self) -> usize {
+        self.train
+    }
+
+    /// Guard cells per side.
+    pub fn guard(&self) -> usize {
+        self.guard
+    }
+
+    /// Design false-alarm probability.
+    pub fn pfa(&self) -> f64 {
+        self.pfa
+    }
+
+    /// The CA-CFAR factor `α = N·(pfa^{−1/N} − 1)` for `N = 2·train` (the full window): the
+    /// threshold over the *mean* training power.
+    pub fn alpha(&self) -> f64 {
+        self.full_factor * (2 * self.train) as f64
+    }
+
+    /// Shortest line this configuration accepts: `2·(guard + train) + 1`.
+    pub fn min_len(&self) -> usize {
+        2 * (self.guard + self.train) + 1
+    }
+
+    /// Writes the threshold of every cell of `power` into `threshold` and returns how many cells
+    /// exceed theirs (`power[i] > threshold[i]`).
+    ///
+    /// # Errors
+    /// [`DspError::LengthMismatch`] (`cfar threshold`) if the buffers differ in length;
+    /// [`DspError::UnsupportedLength`] (`cfar line`) for a line shorter than
+    /// [`CaCfar::min_len`]; [`DspError::NonFinite`] (`cfar power`) for a NaN or infinite power;
+    /// [`DspError::OutOfRange`] (`cfar power`) for a negative one. On error `threshold` may be
+    /// partly written.
+    pub fn thresholds(&self, power: &[f32], threshold: &mut [f32]) -> Result<usize, DspError> {
+        let len = power.len();
+        check_len("cfar threshold", len, threshold.len())?;
+        if len < self.min_len() {
+            return Err(DspError::UnsupportedLength {
+                what: "cfar line (at least 2·(guard + train) + 1 cells)",
+                len,
+            });
+        }
+        for &p in power {
+            if !p.is_finite() {
+                return Err(DspError::NonFinite { what: "cfar power" });
+            }
+            if p < 0.0 {
+                return Err(DspError::OutOfRange {
+                    what: "cfar power",
+                    value: p,
+                });
+            }
+        }
+        let (g, t) = (self.guard, self.train);
+        // Left window of cell i: [i − g − t, i − g − 1]; right: [i + g + 1, i + g + t] (clipped).
+        let mut left = 0.0f64;
+        let mut right: f64 = power[(g + 1).min(len)..(g + 1 + t).min(len)]
+            .iter()
+            .map(|&p| p as f64)
+            .sum();
+        let mut hits = 0;
+        for i in 0..len {
+            let n_left = i.saturating_sub(g).min(t);
+            let n_right = (len - 1 - i).saturating_sub(g).min(t);
+            let n = n_left + n_right;
+            // n ≥ t (checked line length), so the index is at most t ≤ MAX_CFAR_TRAIN.
+            let factor = self.edge[n - t];
+            let th = (factor * (left + right)) as f32;
+            threshold[i] = th;
+            if power[i] > th {
+                hits += 1;
+            }
+            // Slide to i + 1: the left window gains i − g and loses i − g − t; the right window
+            // loses i + g + 1 and gains i + g + t + 1.
+            if i >= g {
+                left += power[i - g] as f64;
+                if i >= g + t {
+                    left -= power[i - g - t] as f64;
+                }
+            }
+            if i + g + 1 < len {
+                right -= power[i + g + 1] as f64;
+            }
+            if i + g + t + 1 < len {
+                right += power[i + g + t + 1] as f64;
+            }
+            // Guard against a tiny negative sum from rounding when the window empties.
+            left = left.max(0.0);
+            right = right.max(0.0);
+        }
+        Ok(hits)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Exponential(1) powers — |z|² of unit complex Gaussian noise — from a 64-bit LCG (Knuth's
+    /// MMIX constants, top 53 bits as a uniform in (0, 1]): `x = −ln U`.
+    fn exp_noise(seed: u64, n: usize) -> std::vec::Vec<f32> {
+        let mut s = seed;
+        (0..n)
+            .map(|_| {
+                s = s
+                    .wrapping_mul(6364136223846793005)
+                    .wrapping_add(1442695040888963407);
+                let u = ((s >> 11) as f64 + 1.0) / (1u64 << 53) as f64;
+                (-u.ln()) as f32
+            })
+            .collect()
+    }
+
+    fn count_false_alarms(cfar: &CaCfar, lines: usize, len: usize, scale: f32) -> usize {
+        let mut th = std::vec![0.0f32; len];
+        let mut total = 0;
+        for l in 0..lines {
+            let x: std::vec::Vec<f32> = exp_noise(1000 + l as u64, len)
+                .into_iter()
+                .map(|v| v * scale)
+                .collect();
+            total += cfar.thresholds(&x, &mut th).unwrap();
+        }
+        total
+    }
+
+    #[test]
+    fn false_alarm_rate_on_exponential_noise_matches_the_design_pfa() {
+        // For iid exponential powers P(x_i > T_i) = (1 + α/N)^{−N} = pfa exactly at every cell
+        // (edges included: α is recomputed for the truncated window). Over n cells the count has
+        // mean n·pfa; cells of one line share training cells, which correlates their decisions
+        // only weakly (a hit needs the cell itself to be large). We allow 5 binomial standard
+        // deviations, √(n·pfa·(1 − pfa)), either side: a wrong α (e.g. the N = 2·train factor at
+        // the edges, or α for amplitude instead of power) moves the count by far more.
+        for (pfa, lines) in [(1e-2, 400usize), (1e-3, 2000)] {
+            let cfar = CaCfar::new(12, 2, pfa).unwrap();
+            let len = 256;
+            let n = (lines * len) as f64;
+            for scale in [1.0f32, 1e-6] {
+                let hits = count_false_alarms(&cfar, lines, len, scale) as f64;
+                let mean = n * pfa;
+                let sd = (n * pfa * (1.0 - pfa)).sqrt();
+                assert!(
+                    (hits - mean).abs() <= 5.0 * sd,
+                    "pfa {pfa}, scale {scale}: {hits} false alarms, expected {mean} ± {sd}"
+                );
+            }
+        }
+    }
+
+    #[test]
+    fn a_strong_cell_is_detected_and_its_guard_cells_are_not() {
+        let cfar = CaCfar::new(16, 3, 1e-4).unwrap();
+        let mut x = exp_noise(7, 200);
+        // 30 dB above the unit noise power: the threshold is about α/N ≈ 0.33 × S, i.e. ≈ 10.6 ×
+        // the mean noise (10.2 dB) for N = 32, far below 1000.
+        x[100] = 1000.0;
+        let mut th = std::vec![0.0f32; 200];
+        cfar.thresholds(&x, &mut th).unwrap();
+        assert!(x[100] > th[100]);
+        // The target sits in the guard band of its neighbours, not in their training cells.
+        for i in 97..=103 {
+            if i != 100 {
+                assert!(x[i] < th[i], "cell {i}: {} ≥ {}", x[i], th[i]);
+            }
+        }
+        // A cell whose training window holds the target gets its threshold raised by exactly
+        // (α/N)·(1000 − noise) over the noise-only line (up to f32 rounding of the sums).
+        let clean = exp_noise(7, 200);
+        let noise_at_100 = clean[100];
+        let mut th2 = std::vec![0.0f32; 200];
+        cfar.thresholds(&clean, &mut th2).unwrap();
+        let expect = (cfar.alpha() / 32.0) as f32 * (1000.0 - noise_at_100);
+        assert!((th[110] - th2[110] - expect).abs() < 1e-3 * expect);
+    }
+
+    #[test]
+    fn alpha_is_the_classic_ca_cfar_factor() {
+        // α = N (pfa^{−1/N} − 1); N = 32, pfa = 1e-6: 32·(10^{6/32} − 1) = 17.55.
+        let c = CaCfar::new(16, 2, 1e-6).unwrap();
+        assert!((c.alpha() - 32.0 * (10f64.powf(6.0 / 32.0) - 1.0)).abs() < 1e-9);
+        assert_eq!(c.min_len(), 37);
+    }
+
+    #[test]
+    fn bad_input_is_an_error_naming_the_field() {
+        assert!(matches!(
+            CaCfar::new(0, 2, 1e-3),
+            Err(DspError::UnsupportedLength { what, .. }) if what.starts_with("cfar.train")
+        ));
+        assert!(matches!(
+            CaCfar::new(65, 2, 1e-3),
+            Err(DspError::UnsupportedLength { len: 65, .. })
+        ));
+        for pfa in [0.0, 1.0, -0.1, f64::NAN] {
+            assert!(matches!(
+                CaCfar::new(4, 1, pfa),
+                Err(DspError::OutOfRange { what, .. }) if what.starts_with("cfar.pfa")
+            ));
+        }
+        let c = CaCfar::new(4, 1, 1e-3).unwrap();
+        let x = [1.0f32; 11];
+        let mut th = [0.0f32; 11];
+        assert!(matches!(
+            c.thresholds(&x[..10], &mut th[..10]),
+            Err(DspError::UnsupportedLength { what, len: 10 }) if what.starts_with("cfar line")
+        ));
+        assert!(matches!(
+            c.thresholds(&x, &mut th[..10]),
+            Err(DspError::LengthMismatch {
+                what: "cfar threshold",
+                ..
+            })
+        ));
+        let mut bad = x;
+        bad[3] = f32::NAN;
+        assert_eq!(
+            c.thresholds(&bad, &mut th),
+            Err(DspError::NonFinite { what: "cfar power" })
+        );
+        bad[3] = -1.0;
+        assert!(matches!(
+            c.thresholds(&bad, &mut th),
+            Err(DspError::OutOfRange {
+                what: "cfar power",
+                ..
+            })
+        ));
+        assert_eq!(c.thresholds(&x, &mut th), Ok(0));
+    }
+}

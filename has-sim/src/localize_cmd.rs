@@ -1,0 +1,425 @@
+//! `has-sim localize [SCENARIO] --out DIR [--quick] [--twin MESH.obj]`: the paper's §3 — a
+//! monostatic base station detects and localizes a cylinder crossing the factory yard, with ECA
+//! alone and with the environment prior from the reconstructed mesh; writes `report.json` (key
+//! `localize`), `report.md`, detections PLY and SVG plots (paper Fig. 11 and range–Doppler maps).
+
+use std::path::{Path, PathBuf};
+use std::time::Instant;
+
+use anyhow::{Context, Result};
+use clap::Args;
+use glam::Vec3;
+use has_host::imaging::ImagingScenario;
+use has_host::io::{ply::write_ply, PlyData, PlyFormat};
+use has_host::localize::{run_localize, LocalizeResult, LocalizeSpec, ModeSummary};
+use indicatif::{ProgressBar, ProgressStyle};
+use plotters::style::RGBColor;
+use serde_json::json;
+
+use crate::plot::{self, View};
+use crate::reconstruct_cmd::{build_twin, FACTORY_TOML};
+
+/// Options of `localize`.
+#[derive(Args)]
+pub struct LocalizeArgs {
+    /// Scenario file with a `[localize]` table (TOML). Default: the bundled fixtures/factory.toml.
+    pub scenario: Option<PathBuf>,
+    /// Output directory (created if missing).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The quick preset (`[localize.quick]` overrides, and a quick twin if one is built); for CI.
+    #[arg(long)]
+    pub quick: bool,
+    /// The digital twin (OBJ/PLY/XML mesh of the reconstructed environment). Default: run
+    /// `reconstruct` on the same scenario into DIR/twin and use its mesh.obj.
+    #[arg(long)]
+    pub twin: Option<PathBuf>,
+}
+
+fn load(args: &LocalizeArgs) -> Result<(ImagingScenario, LocalizeSpec, String)> {
+    let (sc, name) = match &args.scenario {
+        Some(p) => (ImagingScenario::load(p)?, p.display().to_string()),
+        None => (
+            ImagingScenario::from_toml_str(FACTORY_TOML)
+                .context("bundled fixtures/factory.toml")?,
+            "fixtures/factory.toml (bundled)".to_string(),
+        ),
+    };
+    let mut spec = sc
+        .localize
+        .clone()
+        .with_context(|| format!("{name}: no [localize] table"))?;
+    if args.quick {
+        spec.apply_quick();
+    }
+    spec.validate()?;
+    Ok((sc, spec, name))
+}
+
+fn summary_json(s: &ModeSummary) -> serde_json::Value {
+    json!({
+        "label": s.label,
+        "sqrt_chamfer_m": s.sqrt_chamfer_m,
+        "sqrt_chamfer_all_detections_m": s.sqrt_chamfer_all_m,
+        "detections": s.detections,
+        "false_alarms": s.false_alarms,
+        "frames_detected": s.frames_detected,
+        "cancellation_db": s.cancellation_db,
+    })
+}
+
+fn write_points(path: &Path, points: Vec<Vec3>, props: Vec<(&str, Vec<f32>)>) -> Result<()> {
+    let mut d = PlyData::from_points(points);
+    for (n, v) in props {
+        d = d.with_property(n, v);
+    }
+    write_ply(path, &d, PlyFormat::BinaryLittleEndian)
+        .with_context(|| format!("writing {}", path.display()))
+}
+
+/// Runs the command.
+pub fn run(args: LocalizeArgs) -> Result<()> {
+    let t0 = Instant::now();
+    let (sc, spec, scenario_name) = load(&args)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("creating {}", args.out.display()))?;
+    let (twin_path, twin_built_s) = match &args.twin {
+        Some(p) => (p.clone(), None),
+        None => {
+            let t = Instant::now();
+            let p = build_twin(args.scenario.clone(), &args.out.join("twin"), args.quick)?;
+            (p, Some(t.elapsed().as_secs_f64()))
+        }
+    };
+    let twin = has_host::io::load_objects(&twin_path, None)
+        .with_context(|| format!("--twin {}", twin_path.display()))?;
+    let scene = sc.scene.build()?;
+
+    let bar = ProgressBar::new(spec.frames as u64);
+    bar.set_style(
+        ProgressStyle::with_template("localize [{bar:40}] {pos}/{len} frames {elapsed}")
+            .unwrap_or_else(|_| ProgressStyle::default_bar())
+            .progress_chars("=> "),
+    );
+    let t1 = Instant::now();
+    let result = run_localize(&spec, &scene, twin, &|d, _| bar.set_position(d as u64))?;
+    bar.finish_and_clear();
+    let run_s = t1.elapsed().as_secs_f64();
+
+    let eca = &result.summaries[result.eca_best];
+    let env = &result.summaries[result.env_pass];
+    let improvement = match (eca.sqrt_chamfer_m, env.sqrt_chamfer_m) {
+        (Some(a), Some(b)) if a > 0.0 => Some(100.0 * (a - b) / a),
+        _ => None,
+    };
+    write_outputs(&args, &spec, &result)?;
+    let wall = t0.elapsed().as_secs_f64();
+
+    let frames_json: Vec<serde_json::Value> = result
+        .frames
+        .iter()
+        .map(|f| {
+            json!({
+                "index": f.index,
+                "target_base": [f.centre.x, f.centre.y, f.centre.z],
+                "radial_speed_mps": f.radial_speed_mps,
+                "doppler_hz": f.doppler_hz,
+                "truth_points": f.truth.len(),
+                "detections": result.passes.iter().zip(&f.detections)
+                    .map(|(p, d)| (p.clone(), json!(d.len())))
+                    .collect::<serde_json::Map<_, _>>(),
+                "cancellation_db": result.passes.iter().zip(&f.cancellation_db)
+                    .map(|(p, d)| (p.clone(), json!(d)))
+                    .collect::<serde_json::Map<_, _>>(),
+                "template_db": f.template_db,
+            })
+        })
+        .collect();
+    let report = json!({
+        "scenario": scenario_name,
+        "preset": if args.quick { "quick" } else { "default" },
+        "twin": twin_path.display().to_string(),
+        "localize": {
+            "eca": summary_json(eca),
+            "env": summary_json(env),
+            "improvement_pct": improvement,
+            "eca_variants": result.eca_passes.iter().map(|&p| summary_json(&result.summaries[p])).collect::<Vec<_>>(),
+            "no_suppression": summary_json(&result.summaries[0]),
+            "template_depth_db": result.frames.iter().map(|f| f.template_db).sum::<f64>() / result.frames.len() as f64,
+            "env_gate_fraction": result.frames.first().map(|f| f.gate_fraction),
+            "frames": frames_json,
+            "clutter_scatterers": result.clutter_scatterers,
+            "twin_scatterers": result.twin_scatterers,
+            "target_scatterers_per_frame": result.target_scatterers,
+            "truth_points": result.frames.iter().map(|f| f.truth.len()).sum::<usize>(),
+            "cube_range_beams_doppler": result.cube,
+            "range_window_m": result.range_window_m,
+            "spec": spec,
+            "timings_s": {
+                "wall": wall,
+                "twin_reconstruction": twin_built_s,
+                "run": run_s,
+                "setup": result.timings_s.setup,
+                "synthesis": result.timings_s.synthesis,
+                "processing": result.timings_s.processing,
+            },
+            "threads": rayon::current_num_threads(),
+            "conventions": {
+                "chamfer": "paper eq. 2 (squared distances, mean each way, summed), reported as sqrt, metres",
+                "s1": "detections within false_alarm_gate_m of the target's surface in their frame, pooled over frames",
+                "s2": "the target's true scattering points: its surface scatterers facing the base station at each CPI centre, pooled over frames",
+                "false_alarm": "a detection farther than false_alarm_gate_m from the target cylinder's surface in its frame",
+                "cancellation_db": "energy of the beamformed slow-time data (range window × field of view) without suppression over with it",
+                "template_depth_db": "energy of the range-compressed frame before over after the environment template subtraction",
+            },
+        },
+    });
+    let text = serde_json::to_string_pretty(&report)?;
+    has_host::io::atomic_write(&args.out.join("report.json"), |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+    })?;
+    let md = report_md(&report, &result)?;
+    has_host::io::atomic_write(&args.out.join("report.md"), |w| {
+        std::io::Write::write_all(w, md.as_bytes())
+    })?;
+    let f = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.3} m"));
+    println!(
+        "localize: ECA ({}) √CD {}, {} detections, {} false alarms; env prior √CD {}, {} detections, {} false alarms; improvement {}  [paper: 1.73 m → 1.07 m, 40 %]",
+        eca.label,
+        f(eca.sqrt_chamfer_m),
+        eca.detections,
+        eca.false_alarms,
+        f(env.sqrt_chamfer_m),
+        env.detections,
+        env.false_alarms,
+        improvement.map_or("—".to_string(), |p| format!("{p:.1} %")),
+    );
+    println!("wall {:.1} s; report in {}", wall, args.out.display());
+    Ok(())
+}
+
+fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -> Result<()> {
+    let truth: Vec<Vec3> = r.frames.iter().flat_map(|f| f.truth.clone()).collect();
+    write_points(&args.out.join("truth.ply"), truth.clone(), vec![])?;
+    let det = |pass: usize| -> (Vec<Vec3>, Vec<f32>, Vec<f32>, Vec<f32>) {
+        let mut p = Vec::new();
+        let (mut fr, mut snr, mut dop) = (Vec::new(), Vec::new(), Vec::new());
+        for f in &r.frames {
+            for d in &f.detections[pass] {
+                p.push(d.pos);
+                fr.push(f.index as f32);
+                snr.push(d.snr_db);
+                dop.push(d.doppler_hz);
+            }
+        }
+        (p, fr, snr, dop)
+    };
+    let grey = RGBColor(200, 60, 60);
+    let blue = RGBColor(20, 70, 200);
+    let green = RGBColor(20, 150, 60);
+    let (eca_pts, a, b, c) = det(r.eca_best);
+    write_points(
+        &args.out.join("detections_eca.ply"),
+        eca_pts.clone(),
+        vec![("frame", a), ("snr_db", b), ("doppler_hz", c)],
+    )?;
+    let (env_pts, a, b, c) = det(r.env_pass);
+    write_points(
+        &args.out.join("detections_env.ply"),
+        env_pts.clone(),
+        vec![("frame", a), ("snr_db", b), ("doppler_hz", c)],
+    )?;
+    let eca_label = format!("{} detections", r.passes[r.eca_best]);
+    plot::projection(
+        &args.out.join("detections_eca_top.svg"),
+        "(a) Detections without the environment prior (best ECA), top view; red: true scattering points",
+        View::Top,
+        &[("truth", &truth, grey, 1), (&eca_label, &eca_pts, blue, 3)],
+    )?;
+    plot::projection(
+        &args.out.join("detections_env_top.svg"),
+        "(b) Detections with the environment prior, top view; red: true scattering points",
+        View::Top,
+        &[
+            ("truth", &truth, grey, 1),
+            ("env detections", &env_pts, green, 3),
+        ],
+    )?;
+    plot::projection(
+        &args.out.join("detections_top.svg"),
+        "(c) Both modes over the true track, top view",
+        View::Top,
+        &[
+            ("truth", &truth, grey, 1),
+            (&eca_label, &eca_pts, blue, 3),
+            ("env detections", &env_pts, green, 2),
+        ],
+    )?;
+    plot::projection(
+        &args.out.join("detections_side.svg"),
+        "Both modes over the true track, side view from −y",
+        View::Side,
+        &[
+            ("truth", &truth, grey, 1),
+            (&eca_label, &eca_pts, blue, 3),
+            ("env detections", &env_pts, green, 2),
+        ],
+    )?;
+    // Range–Doppler maps at the beam towards the target, for the frame with the slowest radial
+    // speed (where the clutter notch hurts most) and the fastest.
+    let slow = r
+        .frames
+        .iter()
+        .min_by(|a, b| {
+            a.radial_speed_mps
+                .abs()
+                .total_cmp(&b.radial_speed_mps.abs())
+        })
+        .map(|f| f.index)
+        .unwrap_or(0);
+    let fast = r
+        .frames
+        .iter()
+        .max_by(|a, b| {
+            a.radial_speed_mps
+                .abs()
+                .total_cmp(&b.radial_speed_mps.abs())
+        })
+        .map(|f| f.index)
+        .unwrap_or(0);
+    let nb = r.cube[0];
+    let nd = r.cube[2];
+    let t_sym = spec.symbol_interval_ms * 1e-3;
+    let fmax = 0.5 / t_sym;
+    let noise_db = 10.0 * r.noise_cell.log10() as f32;
+    for (tag, fi) in [("slow", slow), ("fast", fast)] {
+        let fr = &r.frames[fi];
+        for (name, pass) in [("before", 0usize), ("eca", r.eca_best), ("env", r.env_pass)] {
+            let rd = &fr.range_doppler[pass];
+            // [b][d] FFT order → [d shifted][b] in dB relative to the noise per cell.
+            let mut v = vec![0.0f32; nb * nd];
+            for d in 0..nd {
+                let ds = (d + nd / 2) % nd;
+                for b in 0..nb {
+                    v[ds * nb + b] = 10.0 * rd[b * nd + d].max(1e-30).log10() - noise_db;
+                }
+            }
+            let title = format!(
+                "Range–Doppler at the target's beam, frame {} (radial {:.2} m/s), {}",
+                fi,
+                fr.radial_speed_mps,
+                match name {
+                    "before" => "before suppression".to_string(),
+                    "eca" => format!("after {}", r.passes[r.eca_best]),
+                    _ => "after the environment prior + ECA".to_string(),
+                }
+            );
+            plot::heatmap(
+                &args.out.join(format!("rd_{tag}_{name}.svg")),
+                &title,
+                ("range (m)", "Doppler (Hz)"),
+                (r.range_window_m[0], r.range_window_m[1]),
+                (-fmax, fmax),
+                (nb, nd),
+                &v,
+                (-5.0, 60.0),
+            )?;
+        }
+    }
+    Ok(())
+}
+
+fn report_md(r: &serde_json::Value, res: &LocalizeResult) -> Result<String> {
+    use std::fmt::Write;
+    let l = &r["localize"];
+    let mut s = String::new();
+    writeln!(
+        s,
+        "# has-sim localize — {}\n\nPreset `{}`, twin `{}`.\n",
+        r["scenario"].as_str().unwrap_or(""),
+        r["preset"].as_str().unwrap_or(""),
+        r["twin"].as_str().unwrap_or("")
+    )?;
+    let m = |v: &serde_json::Value| v.as_f64().map_or("—".into(), |x| format!("{x:.3} m"));
+    writeln!(s, "| target localization | √CD | detections | false alarms | frames detected | cancellation |")?;
+    writeln!(s, "|---|---|---|---|---|---|")?;
+    for p in 0..res.passes.len() {
+        let x = &res.summaries[p];
+        let tag = if p == res.eca_best {
+            " (reported ECA baseline)"
+        } else if p == res.env_pass {
+            " (environment prior)"
+        } else {
+            ""
+        };
+        writeln!(
+            s,
+            "| {}{} | {} | {} | {} | {}/{} | {:.1} dB |",
+            x.label,
+            tag,
+            x.sqrt_chamfer_m.map_or("—".into(), |v| format!("{v:.3} m")),
+            x.detections,
+            x.false_alarms,
+            x.frames_detected,
+            res.frames.len(),
+            x.cancellation_db
+        )?;
+    }
+    writeln!(
+        s,
+        "\nECA {} → environment prior {}: improvement {}. Paper: 1.73 m → 1.07 m (≈ 40 %).",
+        m(&l["eca"]["sqrt_chamfer_m"]),
+        m(&l["env"]["sqrt_chamfer_m"]),
+        l["improvement_pct"]
+            .as_f64()
+            .map_or("—".into(), |p| format!("{p:.1} %"))
+    )?;
+    writeln!(
+        s,
+        "\nTemplate subtraction (twin prediction fitted per range segment) removes {:.2} dB of the frame energy on average; the twin's clutter map notches {:.1} % of the (range, beam) cells.",
+        l["template_depth_db"].as_f64().unwrap_or(0.0),
+        100.0 * l["env_gate_fraction"].as_f64().unwrap_or(0.0)
+    )?;
+    writeln!(
+        s,
+        "\n| frame | target base (x, y) | radial m/s | ECA det. | env det. |"
+    )?;
+    writeln!(s, "|---|---|---|---|---|")?;
+    for f in &res.frames {
+        writeln!(
+            s,
+            "| {} | ({:.1}, {:.1}) | {:+.2} | {} | {} |",
+            f.index,
+            f.centre.x,
+            f.centre.y,
+            f.radial_speed_mps,
+            f.detections[res.eca_best].len(),
+            f.detections[res.env_pass].len()
+        )?;
+    }
+    let t = &l["timings_s"];
+    writeln!(
+        s,
+        "\nWall {:.1} s (twin reconstruction {}, synthesis {:.1} s, processing {:.1} s) on {} threads. Cube {:?} (range bins × beams × Doppler bins), range window {:.1}–{:.1} m; {} visible clutter scatterers, {} twin scatterers, {:.0} target scatterers per frame.",
+        t["wall"].as_f64().unwrap_or(0.0),
+        t["twin_reconstruction"].as_f64().map_or("given".into(), |v| format!("{v:.1} s")),
+        t["synthesis"].as_f64().unwrap_or(0.0),
+        t["processing"].as_f64().unwrap_or(0.0),
+        l["threads"],
+        res.cube,
+        res.range_window_m[0],
+        res.range_window_m[1],
+        res.clutter_scatterers,
+        res.twin_scatterers,
+        res.target_scatterers
+    )?;
+    writeln!(
+        s,
+        "\nConventions: {}; S1 = {}; S2 = {}; false alarm = {}.",
+        l["conventions"]["chamfer"].as_str().unwrap_or(""),
+        l["conventions"]["s1"].as_str().unwrap_or(""),
+        l["conventions"]["s2"].as_str().unwrap_or(""),
+        l["conventions"]["false_alarm"].as_str().unwrap_or("")
+    )?;
+    Ok(s)
+}
