@@ -6,7 +6,7 @@
 //! The experiment is the scenario's `[channel]` table (`has_host::prediction::ChannelSpec`); the
 //! comparison is `has_host::prediction::compare_ue` (matching in `has_host::multipath`, beams in
 //! `has_host::beam`). Writes into DIR: `report.json` (key `channel`), `report.md`, `errors.csv`
-//! (every matched pair), `cdf_delay.svg`, `cdf_angles.svg`, `ue_map.svg`, and `twin/` when the
+//! (every matched pair), `ues.csv` (every UE), `cdf_delay.svg`, `cdf_angles.svg`, `ue_map.svg`, and `twin/` when the
 //! twin is reconstructed here.
 
 use std::path::{Path, PathBuf};
@@ -490,6 +490,7 @@ pub fn run(args: ChannelArgs) -> Result<()> {
     write_text(&args.out.join("report.json"), &text)?;
     write_text(&args.out.join("errors.csv"), &csv)?;
     write_text(&args.out.join("report.md"), &report_md(&report["channel"])?)?;
+    write_text(&args.out.join("ues.csv"), &ues_csv(&ues, &outcomes))?;
     let col = |k: usize| -> Vec<f64> { all.iter().map(|r| r[k]).collect() };
     plot::cdf(
         &args.out.join("cdf_delay.svg"),
@@ -544,6 +545,30 @@ pub fn run(args: ChannelArgs) -> Result<()> {
         args.out.display()
     );
     Ok(())
+}
+
+/// One line per UE: position, kept, strongest true path, windowed path counts, beams.
+fn ues_csv(ues: &[DVec3], outcomes: &[UeOutcome]) -> String {
+    let mut s = String::from(
+        "ue,x,y,z,kept,strongest_true_db,true_paths,twin_paths,true_best_beam,predicted_beam,beam_loss_db\n",
+    );
+    for (i, (p, o)) in ues.iter().zip(outcomes).enumerate() {
+        let opt = |v: Option<String>| v.unwrap_or_default();
+        s.push_str(&format!(
+            "{i},{:.3},{:.3},{:.3},{},{},{},{},{},{},{}\n",
+            p.x,
+            p.y,
+            p.z,
+            u8::from(o.kept),
+            opt(o.strongest_true_db.map(|g| format!("{g:.3}"))),
+            o.true_paths.len(),
+            o.twin_paths.len(),
+            opt(o.beam.map(|b| b.true_best.to_string())),
+            opt(o.beam.and_then(|b| b.predicted).map(|b| b.to_string())),
+            opt(o.beam.map(|b| format!("{:.3}", b.loss_db()))),
+        ));
+    }
+    s
 }
 
 fn write_text(path: &Path, text: &str) -> Result<()> {

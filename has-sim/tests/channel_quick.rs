@@ -55,14 +55,23 @@ fn quick_channel_prediction_reports_errors_beams_and_plots() {
         }
     }
     // Line of sight and the ground bounce (the ground is known to the twin) are identical in both
-    // models whenever the twin does not block them; they are most of the kept paths (73 + ~60 of
-    // 142), so the 90th percentile of every error is exactly 0 on the quick twin. It becomes
-    // non-zero only if the twin wrongly blocks or adds >10 % of the paths.
-    for k in ["delay_ns", "aoa_deg", "aod_deg", "zoa_deg", "zod_deg"] {
+    // models unless the twin blocks them, and they are most of the kept paths, so the errors are
+    // mostly 0; the wall reflections of the quick twin (least-squares facet planes) add small
+    // ones. Measured p90: delay 0.09 ns, AoA 0.003°, AoD 0.04°, ZoA 0.09°, ZoD 0.02°. The bounds
+    // are the goal (1 ns, 1°, 1°, 0.5°, 0.5°), 5-10× above the measurement: a twin that
+    // loses or misplaces more than ~10 % of the paths (a blocked line of sight pairs with a
+    // reflection tens of ns and degrees away) fails them.
+    for (k, goal) in [
+        ("delay_ns", 1.0),
+        ("aoa_deg", 1.0),
+        ("aod_deg", 1.0),
+        ("zoa_deg", 0.5),
+        ("zod_deg", 0.5),
+    ] {
         let v = c["p90"][k].as_f64().unwrap_or(f64::NAN);
-        assert!(v < 1e-6, "channel.p90.{k} = {v}");
+        assert!(v <= goal, "channel.p90.{k} = {v} > {goal}");
     }
-    // Beam selection measured 95.9 % (70 of 73): the true best beam is set by the line of sight,
+    // Beam selection measured 97.3 % (71 of 73): the true best beam is set by the line of sight,
     // which the twin reproduces; a regression that loses lines of sight fails this.
     let agree = c["beam"]["agreement_pct"].as_f64().expect("agreement_pct");
     assert!(agree >= 90.0, "beam agreement {agree} %");
