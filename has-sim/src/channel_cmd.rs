@@ -274,6 +274,7 @@ pub fn run(args: ChannelArgs) -> Result<()> {
             .any(|&o| !known.get(o as usize).copied().unwrap_or(false))
     };
     let mut building = Vec::new();
+    let mut building_matched = Vec::new();
     let mut all = Vec::new();
     let mut fwd = Vec::new();
     let mut bwd = Vec::new();
@@ -305,6 +306,9 @@ pub fn run(args: ChannelArgs) -> Result<()> {
             let vb = via_building(&o.true_paths[m.from], &known_true);
             if vb {
                 building.push(e);
+                if m.distance <= UNMATCHED_DISTANCE {
+                    building_matched.push(e);
+                }
             }
             let order = o.true_paths[m.from].order;
             by_order.entry(order).or_default().push(e);
@@ -330,6 +334,9 @@ pub fn run(args: ChannelArgs) -> Result<()> {
             let vb = via_building(&o.twin_paths[m.from], &known_twin);
             if vb {
                 building.push(e);
+                if m.distance <= UNMATCHED_DISTANCE {
+                    building_matched.push(e);
+                }
             }
             if m.distance > UNMATCHED_DISTANCE {
                 spurious += 1;
@@ -425,6 +432,7 @@ pub fn run(args: ChannelArgs) -> Result<()> {
         "p95": all_stats["p95"],
         "mean": all_stats["mean"],
         "via_building": stats(&building)?,
+        "via_building_matched": stats(&building_matched)?,
         "true_to_twin": stats(&fwd)?,
         "twin_to_true": stats(&bwd)?,
         "true_to_twin_by_order": by_order_json,
@@ -481,6 +489,7 @@ pub fn run(args: ChannelArgs) -> Result<()> {
             "beam": "best beam = argmax over the codebook of |Σ a_p w_bᴴ a(AoD_p, ZoD_p)|² (all paths, carrier phase, isotropic elements); predicted from the twin's paths, judged on the true channel",
             "twin": "reconstructed mesh + known_objects of the true scene",
             "via_building": "pairs whose source path reflects at least once off an object that is not in known_objects (line of sight and ground-only paths excluded)",
+            "via_building_matched": "via_building pairs within the unmatched distance (the path has a counterpart in the other model)",
         },
     });
     let report = json!({ "channel": channel });
@@ -695,6 +704,18 @@ fn report_md(c: &Value) -> Result<String> {
         f(&vb["p50"]["aod_deg"]), f(&vb["p90"]["aod_deg"]), f(&vb["p95"]["aod_deg"]),
         f(&vb["p50"]["zoa_deg"]), f(&vb["p90"]["zoa_deg"]), f(&vb["p95"]["zoa_deg"]),
         f(&vb["p50"]["zod_deg"]), f(&vb["p90"]["zod_deg"]), f(&vb["p95"]["zod_deg"]),
+    )?;
+    let vm = &c["via_building_matched"];
+    writeln!(
+        s,
+        "Of those, {} have a counterpart within distance {}: p90 delay {:.3} ns, AoA {:.2}°, AoD {:.2}°, ZoA {:.2}°, ZoD {:.2}°.",
+        vm["count"],
+        c["paths"]["unmatched_distance"],
+        f(&vm["p90"]["delay_ns"]),
+        f(&vm["p90"]["aoa_deg"]),
+        f(&vm["p90"]["aod_deg"]),
+        f(&vm["p90"]["zoa_deg"]),
+        f(&vm["p90"]["zod_deg"]),
     )?;
     let b = &c["beam"];
     writeln!(

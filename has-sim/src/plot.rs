@@ -97,8 +97,9 @@ pub fn projection(
 }
 
 /// Empirical CDFs (paper Fig. 9 style): one step curve per series `(label, values, colour)`,
-/// x from 0 to the largest value of any series (at least `x_min_max`), y the fraction of values
-/// ≤ x; a dashed line marks the 90th percentile level. Written to `path`.
+/// x from 0 to the largest 98th percentile of the series (at least `x_min_max`; larger values run
+/// off the right edge), y the fraction of values ≤ x; a dashed line marks the 90th percentile
+/// level. Written to `path`.
 pub fn cdf(
     path: &Path,
     title: &str,
@@ -106,16 +107,18 @@ pub fn cdf(
     series: &[(&str, &[f64], RGBColor)],
     x_min_max: f64,
 ) -> Result<()> {
+    // The x axis ends at the largest 98th percentile of the series (a few unmatched pairs tens
+    // of ns or degrees away would otherwise squeeze the curves against the y axis).
     let mut x_max = x_min_max;
     for (_, v, _) in series {
-        for &x in v.iter() {
-            if x.is_finite() {
-                x_max = x_max.max(x);
-            }
+        let mut s: Vec<f64> = v.iter().copied().filter(|x| x.is_finite()).collect();
+        s.sort_by(f64::total_cmp);
+        if let Some(&x) = s.get((s.len() * 98 / 100).min(s.len().saturating_sub(1))) {
+            x_max = x_max.max(x);
         }
     }
     let x_max = if x_max.is_finite() && x_max > 0.0 {
-        x_max * 1.02
+        x_max * 1.05
     } else {
         1.0
     };
@@ -152,6 +155,7 @@ pub fn cdf(
             if let Some(&last) = s.last() {
                 pts.push((x_max.max(last), 1.0));
             }
+            let pts: Vec<(f64, f64)> = pts.into_iter().map(|(x, y)| (x.min(x_max), y)).collect();
             let c = *colour;
             chart
                 .draw_series(LineSeries::new(pts, c.stroke_width(2)))?
