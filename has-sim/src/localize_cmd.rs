@@ -61,6 +61,9 @@ fn summary_json(s: &ModeSummary) -> serde_json::Value {
         "label": s.label,
         "sqrt_chamfer_m": s.sqrt_chamfer_m,
         "sqrt_chamfer_all_detections_m": s.sqrt_chamfer_all_m,
+        "accuracy_rms_m": s.accuracy_rms_m,
+        "completeness_rms_m": s.completeness_rms_m,
+        "completeness_strong_rms_m": s.completeness_strong_rms_m,
         "detections": s.detections,
         "false_alarms": s.false_alarms,
         "frames_detected": s.frames_detected,
@@ -168,6 +171,7 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
                 "chamfer": "paper eq. 2 (squared distances, mean each way, summed), reported as sqrt, metres",
                 "s1": "detections within false_alarm_gate_m of the target's surface in their frame, pooled over frames",
                 "s2": "the target's true scattering points: its surface scatterers facing the base station at each CPI centre, pooled over frames",
+                "accuracy_completeness": "√CD² = accuracy² + completeness² (rms S1→S2 and S2→S1); completeness is also given on the truth points within 60° of their normal (cos ≥ 0.5)",
                 "false_alarm": "a detection farther than false_alarm_gate_m from the target cylinder's surface in its frame",
                 "cancellation_db": "energy of the beamformed slow-time data (range window × field of view) without suppression over with it",
                 "template_depth_db": "energy of the range-compressed frame before over after the environment template subtraction",
@@ -341,8 +345,8 @@ fn report_md(r: &serde_json::Value, res: &LocalizeResult) -> Result<String> {
         r["twin"].as_str().unwrap_or("")
     )?;
     let m = |v: &serde_json::Value| v.as_f64().map_or("—".into(), |x| format!("{x:.3} m"));
-    writeln!(s, "| target localization | √CD | detections | false alarms | frames detected | cancellation |")?;
-    writeln!(s, "|---|---|---|---|---|---|")?;
+    writeln!(s, "| target localization | √CD | accuracy rms | completeness rms (cos ≥ 0.5) | detections | false alarms | frames detected | cancellation |")?;
+    writeln!(s, "|---|---|---|---|---|---|---|---|")?;
     for p in 0..res.passes.len() {
         let x = &res.summaries[p];
         let tag = if p == res.eca_best {
@@ -352,12 +356,16 @@ fn report_md(r: &serde_json::Value, res: &LocalizeResult) -> Result<String> {
         } else {
             ""
         };
+        let f = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3} m"));
         writeln!(
             s,
-            "| {}{} | {} | {} | {} | {}/{} | {:.1} dB |",
+            "| {}{} | {} | {} | {} ({}) | {} | {} | {}/{} | {:.1} dB |",
             x.label,
             tag,
-            x.sqrt_chamfer_m.map_or("—".into(), |v| format!("{v:.3} m")),
+            f(x.sqrt_chamfer_m),
+            f(x.accuracy_rms_m),
+            f(x.completeness_rms_m),
+            f(x.completeness_strong_rms_m),
             x.detections,
             x.false_alarms,
             x.frames_detected,

@@ -32,6 +32,9 @@ pub struct FrameResult {
     pub doppler_hz: f32,
     /// The target's true scattering points (facing the base station) at the CPI centre.
     pub truth: Vec<Vec3>,
+    /// Cosine of each truth point's angle between its normal and the direction to the base
+    /// station (the monostatic Lambertian echo power goes with its square).
+    pub truth_cos: Vec<f32>,
     /// Detections of each pass (same order as [`LocalizeResult::passes`]).
     pub detections: Vec<Vec<Detection>>,
     /// Cancellation depth of each pass, dB (0 for the pass without suppression).
@@ -55,6 +58,13 @@ pub struct ModeSummary {
     pub sqrt_chamfer_m: Option<f64>,
     /// √CD with every detection of the searched volume (false alarms included), metres.
     pub sqrt_chamfer_all_m: Option<f64>,
+    /// RMS distance from the on-target detections to the truth (accuracy), metres.
+    pub accuracy_rms_m: Option<f64>,
+    /// RMS distance from the truth to the on-target detections (completeness), metres.
+    pub completeness_rms_m: Option<f64>,
+    /// Completeness on the truth points seen within 60° of their normal (cos ≥ 0.5, the part
+    /// returning at least a quarter of the normal-incidence power), metres.
+    pub completeness_strong_rms_m: Option<f64>,
     /// Detections on the target (within the gate).
     pub detections: usize,
     /// Detections outside the gate.
@@ -317,6 +327,13 @@ pub fn run_localize(
             .iter()
             .map(|&i| target.points[i as usize].pos + centre)
             .collect();
+        let truth_cos: Vec<f32> = vis
+            .iter()
+            .map(|&i| {
+                let p = &target.points[i as usize];
+                p.normal.dot((tx - (p.pos + centre)).normalize_or_zero())
+            })
+            .collect();
         let mut frame = vec![C32::new(0.0, 0.0); chain.frame_len()];
         let mut y = vec![C32::new(0.0, 0.0); e_n * spec.subcarriers];
         for (mi, slab) in frame.chunks_exact_mut(e_n * nb).enumerate() {
@@ -390,6 +407,7 @@ pub fn run_localize(
             radial_speed_mps: radial,
             doppler_hz: -2.0 * radial / lambda,
             truth,
+            truth_cos,
             detections,
             cancellation_db,
             template_db: 10.0 * (before / after.max(1e-300)).log10(),
@@ -452,18 +470,29 @@ fn summarize(
         }
         frames_detected += usize::from(any);
     }
-    let cd = |pts: &[Vec3]| -> Result<Option<f64>, LocalizeError> {
+    let cmp = |pts: &[Vec3]| -> Result<Option<CloudComparison>, LocalizeError> {
         if pts.is_empty() || truth.is_empty() {
             Ok(None)
         } else {
-            Ok(Some(CloudComparison::new(pts, truth)?.sqrt_chamfer_m()))
+            Ok(Some(CloudComparison::new(pts, truth)?))
         }
     };
+    let strong: Vec<bool> = frames
+        .iter()
+        .flat_map(|f| f.truth_cos.iter().map(|&c| c >= 0.5))
+        .collect();
+    let on_cmp = cmp(&on)?;
     let depth = frames.iter().map(|f| f.cancellation_db[pass]).sum::<f64>() / frames.len() as f64;
     Ok(ModeSummary {
         label: label.to_string(),
-        sqrt_chamfer_m: cd(&on)?,
-        sqrt_chamfer_all_m: cd(&all)?,
+        sqrt_chamfer_m: on_cmp.as_ref().map(|c| c.sqrt_chamfer_m()),
+        sqrt_chamfer_all_m: cmp(&all)?.map(|c| c.sqrt_chamfer_m()),
+        accuracy_rms_m: on_cmp.as_ref().map(|c| c.rms_s1_to_s2_m()),
+        completeness_rms_m: on_cmp.as_ref().map(|c| c.rms_s2_to_s1_m()),
+        completeness_strong_rms_m: on_cmp
+            .as_ref()
+            .and_then(|c| c.completeness_on(&strong, 1.0))
+            .map(|(rms, _)| rms),
         detections: on.len(),
         false_alarms: all.len() - on.len(),
         frames_detected,
