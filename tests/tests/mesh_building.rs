@@ -47,6 +47,7 @@ fn noisy_factory_mesh_beats_its_input_cloud() {
             ..PoissonParams::default()
         },
         trim: Some(Trim::MedianFraction(0.25)),
+        ..ReconstructParams::default()
     };
     let rec = reconstruct(&cloud, Orientation::Propagate, &params).unwrap();
     let c_cloud = CloudComparison::new(&cloud, &truth).unwrap();

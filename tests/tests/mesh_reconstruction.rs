@@ -34,6 +34,7 @@ fn params(depth: u32) -> ReconstructParams {
             ..PoissonParams::default()
         },
         trim: None,
+        ..ReconstructParams::default()
     }
 }
 
