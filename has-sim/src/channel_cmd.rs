@@ -28,7 +28,7 @@ use rayon::prelude::*;
 use serde_json::{json, Value};
 
 use crate::plot::{self, View};
-use crate::reconstruct_cmd::{build_twin, FACTORY_TOML};
+use crate::reconstruct_cmd::{build_twin, load_scenario};
 
 /// Options of `channel`.
 #[derive(Args)]
@@ -80,14 +80,7 @@ fn in_units(e: &ParamErrors) -> [f64; 5] {
 }
 
 fn load(args: &ChannelArgs) -> Result<(ImagingScenario, ChannelSpec, String)> {
-    let (sc, name) = match &args.scenario {
-        Some(p) => (ImagingScenario::load(p)?, p.display().to_string()),
-        None => (
-            ImagingScenario::from_toml_str(FACTORY_TOML)
-                .context("bundled fixtures/factory.toml")?,
-            "fixtures/factory.toml (bundled)".to_string(),
-        ),
-    };
+    let (sc, name) = load_scenario(args.scenario.as_deref())?;
     let mut spec = sc
         .channel
         .clone()

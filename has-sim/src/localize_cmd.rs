@@ -17,7 +17,7 @@ use plotters::style::RGBColor;
 use serde_json::json;
 
 use crate::plot::{self, View};
-use crate::reconstruct_cmd::{build_twin, FACTORY_TOML};
+use crate::reconstruct_cmd::{build_twin, load_scenario};
 
 /// Options of `localize`.
 #[derive(Args)]
@@ -37,14 +37,7 @@ pub struct LocalizeArgs {
 }
 
 fn load(args: &LocalizeArgs) -> Result<(ImagingScenario, LocalizeSpec, String)> {
-    let (sc, name) = match &args.scenario {
-        Some(p) => (ImagingScenario::load(p)?, p.display().to_string()),
-        None => (
-            ImagingScenario::from_toml_str(FACTORY_TOML)
-                .context("bundled fixtures/factory.toml")?,
-            "fixtures/factory.toml (bundled)".to_string(),
-        ),
-    };
+    let (sc, name) = load_scenario(args.scenario.as_deref())?;
     let mut spec = sc
         .localize
         .clone()

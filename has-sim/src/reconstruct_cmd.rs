@@ -66,15 +66,21 @@ pub struct ReconstructArgs {
     pub no_mesh: bool,
 }
 
-fn load(args: &ReconstructArgs) -> Result<(ImagingScenario, String)> {
-    let (mut sc, name) = match &args.scenario {
+/// Loads the scenario file at `path`, or the bundled factory without one; returns it with the
+/// name reports show.
+pub fn load_scenario(path: Option<&Path>) -> Result<(ImagingScenario, String)> {
+    Ok(match path {
         Some(p) => (ImagingScenario::load(p)?, p.display().to_string()),
         None => (
             ImagingScenario::from_toml_str(FACTORY_TOML)
                 .context("bundled fixtures/factory.toml")?,
             "fixtures/factory.toml (bundled)".to_string(),
         ),
-    };
+    })
+}
+
+fn load(args: &ReconstructArgs) -> Result<(ImagingScenario, String)> {
+    let (mut sc, name) = load_scenario(args.scenario.as_deref())?;
     if args.quick {
         sc.apply_quick();
         sc.validate()?;

@@ -270,7 +270,7 @@ fn default_fusion_min() -> f32 {
 #[derive(Debug, thiserror::Error)]
 pub enum ScenarioError {
     /// The file could not be read.
-    #[error("{path}: {source}")]
+    #[error("{path}: cannot read the file")]
     Io {
         /// The file.
         path: PathBuf,
