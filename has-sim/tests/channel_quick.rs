@@ -3,30 +3,14 @@
 //! the numbers its preset is measured to give. Bad `[channel]` input ends the process with one
 //! readable line naming the field and the value, before any reconstruction.
 
-use std::path::PathBuf;
-use std::process::Command;
+mod common;
 
-fn out_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!(
-        "has-sim-test-channel-{name}-{}",
-        std::process::id()
-    ));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
+use std::process::Command;
 
 #[test]
 fn quick_channel_prediction_reports_errors_beams_and_plots() {
-    let out = out_dir("quick");
-    let status = Command::new(env!("CARGO_BIN_EXE_has-sim"))
-        .args(["channel", "--quick", "--out"])
-        .arg(&out)
-        .status()
-        .expect("has-sim runs");
-    assert!(status.success());
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("report.json")).expect("report.json"))
-            .expect("valid JSON");
+    let out = common::out_dir("channel-quick");
+    let report = common::run_quick("channel", &out);
     let c = &report["channel"];
     let ues = &c["ues"];
     assert_eq!(ues["total"].as_u64(), Some(100));
@@ -81,39 +65,22 @@ fn quick_channel_prediction_reports_errors_beams_and_plots() {
     let csv = std::fs::read_to_string(out.join("errors.csv")).expect("errors.csv");
     let rows = csv.lines().count() - 1;
     assert_eq!(rows as u64, c["count"].as_u64().expect("count"));
-    for f in [
-        "report.md",
-        "cdf_delay.svg",
-        "cdf_angles.svg",
-        "ue_map.svg",
-        "twin/mesh.obj",
-    ] {
-        let len = std::fs::metadata(out.join(f)).map(|m| m.len()).unwrap_or(0);
-        assert!(len > 100, "{f} missing or empty");
-    }
+    common::assert_outputs(
+        &out,
+        &[
+            "report.md",
+            "cdf_delay.svg",
+            "cdf_angles.svg",
+            "ue_map.svg",
+            "twin/mesh.obj",
+        ],
+    );
     let _ = std::fs::remove_dir_all(&out);
-}
-
-/// Runs `channel` on `text` written to a file; returns (success, stderr).
-fn channel_text(dir: &std::path::Path, text: &str) -> (bool, String) {
-    let bad = dir.join("bad.toml");
-    std::fs::write(&bad, text).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_has-sim"))
-        .args(["channel"])
-        .arg(&bad)
-        .arg("--out")
-        .arg(dir.join("out"))
-        .output()
-        .expect("has-sim runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
 }
 
 #[test]
 fn bad_channel_table_fails_with_one_line_naming_field_and_value() {
-    let dir = out_dir("bad");
+    let dir = common::out_dir("channel-bad");
     std::fs::create_dir_all(&dir).unwrap();
     let factory = include_str!("../../fixtures/factory.toml");
     for (from, to, want) in [
@@ -136,14 +103,14 @@ fn bad_channel_table_fails_with_one_line_naming_field_and_value() {
         ("seed = 7", "seed = 7\nbogus = 1", "bogus"),
     ] {
         assert!(factory.contains(from), "{from}");
-        let (ok, err) = channel_text(&dir, &factory.replacen(from, to, 1));
+        let (ok, err) = common::run_on_text("channel", &dir, &factory.replacen(from, to, 1));
         assert!(!ok, "{to}");
         assert_eq!(err.trim_end().lines().count(), 1, "{err}");
         assert!(err.contains(want), "{err} (want {want})");
     }
     // A scenario without a [channel] table.
     let cut = factory.find("[channel]").unwrap();
-    let (ok, err) = channel_text(&dir, &factory[..cut]);
+    let (ok, err) = common::run_on_text("channel", &dir, &factory[..cut]);
     assert!(!ok);
     assert!(err.contains("no [channel] table"), "{err}");
     // A twin that does not exist.

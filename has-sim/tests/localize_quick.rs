@@ -3,27 +3,14 @@
 //! the localization its preset is documented to reach and writes every output. Bad input ends the
 //! process with one readable line and a non-zero exit.
 
-use std::path::PathBuf;
-use std::process::Command;
+mod common;
 
-fn out_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("has-sim-test-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
+use std::process::Command;
 
 #[test]
 fn quick_localization_meets_its_documented_bounds() {
-    let out = out_dir("localize-quick");
-    let status = Command::new(env!("CARGO_BIN_EXE_has-sim"))
-        .args(["localize", "--quick", "--out"])
-        .arg(&out)
-        .status()
-        .expect("has-sim runs");
-    assert!(status.success());
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("report.json")).expect("report.json"))
-            .expect("valid JSON");
+    let out = common::out_dir("localize-quick");
+    let report = common::run_quick("localize", &out);
     let l = &report["localize"];
     let eca = l["eca"]["sqrt_chamfer_m"].as_f64().expect("eca √CD");
     let env = l["env"]["sqrt_chamfer_m"].as_f64().expect("env √CD");
@@ -37,28 +24,28 @@ fn quick_localization_meets_its_documented_bounds() {
     assert_eq!(l["eca"]["frames_detected"].as_u64(), Some(frames));
     assert_eq!(l["env"]["frames_detected"].as_u64(), Some(frames));
     assert_eq!(l["eca_variants"].as_array().map(Vec::len), Some(4));
-    for f in [
-        "report.md",
-        "truth.ply",
-        "detections_eca.ply",
-        "detections_env.ply",
-        "detections_top.svg",
-        "detections_eca_top.svg",
-        "detections_env_top.svg",
-        "rd_slow_before.svg",
-        "rd_slow_eca.svg",
-        "rd_slow_env.svg",
-        "twin/mesh.obj",
-    ] {
-        let len = std::fs::metadata(out.join(f)).map(|m| m.len()).unwrap_or(0);
-        assert!(len > 100, "{f} missing or empty");
-    }
+    common::assert_outputs(
+        &out,
+        &[
+            "report.md",
+            "truth.ply",
+            "detections_eca.ply",
+            "detections_env.ply",
+            "detections_top.svg",
+            "detections_eca_top.svg",
+            "detections_env_top.svg",
+            "rd_slow_before.svg",
+            "rd_slow_eca.svg",
+            "rd_slow_env.svg",
+            "twin/mesh.obj",
+        ],
+    );
     let _ = std::fs::remove_dir_all(&out);
 }
 
 #[test]
 fn bad_input_is_one_readable_line() {
-    let out = out_dir("localize-bad");
+    let out = common::out_dir("localize-bad");
     let missing = out.join("no-such-twin.obj");
     let o = Command::new(env!("CARGO_BIN_EXE_has-sim"))
         .args(["localize", "--quick", "--twin"])

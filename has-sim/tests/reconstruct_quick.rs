@@ -2,27 +2,12 @@
 //! meets the point-cloud quality its preset is documented to reach, and writes every output.
 //! Bad scenario input ends the process with one readable line and a non-zero exit.
 
-use std::path::PathBuf;
-use std::process::Command;
-
-fn out_dir(name: &str) -> PathBuf {
-    let d = std::env::temp_dir().join(format!("has-sim-test-{name}-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&d);
-    d
-}
+mod common;
 
 #[test]
 fn quick_factory_reconstruction_meets_its_documented_bounds() {
-    let out = out_dir("quick");
-    let status = Command::new(env!("CARGO_BIN_EXE_has-sim"))
-        .args(["reconstruct", "--quick", "--out"])
-        .arg(&out)
-        .status()
-        .expect("has-sim runs");
-    assert!(status.success());
-    let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(out.join("report.json")).expect("report.json"))
-            .expect("valid JSON");
+    let out = common::out_dir("reconstruct-quick");
+    let report = common::run_quick("reconstruct", &out);
     let pc = &report["imaging"]["point_cloud"];
     let sqrt_cd = pc["sqrt_chamfer_m"].as_f64().expect("sqrt_chamfer_m");
     let f15 = pc["fscore_1_5m"].as_f64().expect("fscore_1_5m");
@@ -50,48 +35,35 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
     assert!(mesh_cd <= 1.1, "mesh √CD {mesh_cd} m");
     assert!(mesh_f >= 92.5, "mesh F-score(1.5 m) {mesh_f}");
     assert_eq!(mesh["manifold"].as_bool(), Some(true));
-    for f in [
-        "report.md",
-        "fused.ply",
-        "ground_truth.ply",
-        "fused_top.svg",
-        "fused_side.svg",
-        "pair_BS2-UAV.ply",
-        "mesh.obj",
-        "mesh.ply",
-        "mesh_top.svg",
-        "mesh_input.ply",
-    ] {
-        let len = std::fs::metadata(out.join(f)).map(|m| m.len()).unwrap_or(0);
-        assert!(len > 100, "{f} missing or empty");
-    }
+    common::assert_outputs(
+        &out,
+        &[
+            "report.md",
+            "fused.ply",
+            "ground_truth.ply",
+            "fused_top.svg",
+            "fused_side.svg",
+            "pair_BS2-UAV.ply",
+            "mesh.obj",
+            "mesh.ply",
+            "mesh_top.svg",
+            "mesh_input.ply",
+        ],
+    );
     let _ = std::fs::remove_dir_all(&out);
-}
-
-/// Runs `reconstruct` on `text` written to a file; returns (success, stderr).
-fn reconstruct_text(dir: &std::path::Path, text: &str) -> (bool, String) {
-    let bad = dir.join("bad.toml");
-    std::fs::write(&bad, text).unwrap();
-    let out = Command::new(env!("CARGO_BIN_EXE_has-sim"))
-        .args(["reconstruct"])
-        .arg(&bad)
-        .arg("--out")
-        .arg(dir.join("out"))
-        .output()
-        .expect("has-sim runs");
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
 }
 
 #[test]
 fn malformed_scenario_fails_with_one_line_naming_the_field() {
-    let dir = out_dir("bad");
+    let dir = common::out_dir("reconstruct-bad");
     std::fs::create_dir_all(&dir).unwrap();
     let factory = include_str!("../../fixtures/factory.toml");
 
-    let (ok, err) = reconstruct_text(&dir, &factory.replace("voxel_m = 0.25", "voxel_m = -1.0"));
+    let (ok, err) = common::run_on_text(
+        "reconstruct",
+        &dir,
+        &factory.replace("voxel_m = 0.25", "voxel_m = -1.0"),
+    );
     assert!(!ok);
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(
@@ -99,12 +71,17 @@ fn malformed_scenario_fails_with_one_line_naming_the_field() {
         "{err}"
     );
 
-    let (ok, err) = reconstruct_text(&dir, &factory.replace("[radar]", "[radar]\nbogus = 1"));
+    let (ok, err) = common::run_on_text(
+        "reconstruct",
+        &dir,
+        &factory.replace("[radar]", "[radar]\nbogus = 1"),
+    );
     assert!(!ok);
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     assert!(err.contains("bogus"), "{err}");
 
-    let (ok, err) = reconstruct_text(
+    let (ok, err) = common::run_on_text(
+        "reconstruct",
         &dir,
         &factory.replace(
             "position = [-45.0, -40.0, 20.0]",
