@@ -15,9 +15,18 @@ fn quick_localization_meets_its_documented_bounds() {
     let eca = l["eca"]["sqrt_chamfer_m"].as_f64().expect("eca √CD");
     let env = l["env"]["sqrt_chamfer_m"].as_f64().expect("env √CD");
     // Measured on the bundled scenario with the quick twin (deterministic per seed): ECA
-    // 1.379 m, environment prior 1.335 m. The bounds fail only if the chain gets worse.
+    // 1.446 m, environment prior 1.342 m (4 and 147 false alarms). The bounds fail only if the chain gets worse.
     assert!(eca <= 1.5, "ECA √CD {eca} m");
     assert!(env <= 1.4, "env √CD {env} m");
+    // With ECA the only false alarms left are noise and target sidelobes: the CFAR holds its
+    // design rate, so they stay below the design expectation cells·pfa·frames (46 for this
+    // preset; a CFAR blind to the correlation of its range bins gave 220).
+    let cube = l["cube_range_beams_doppler"].as_array().expect("cube");
+    let cells: f64 = cube.iter().map(|v| v.as_f64().unwrap()).product();
+    let pfa = l["spec"]["cfar_pfa"].as_f64().expect("pfa");
+    let frames_f = l["frames"].as_array().expect("frames").len() as f64;
+    let fa = l["eca"]["false_alarms"].as_f64().expect("false alarms");
+    assert!(fa <= cells * pfa * frames_f, "{fa} ECA false alarms");
     assert!(l["improvement_pct"].as_f64().is_some());
     // Every frame of the quick preset sees the target in both modes.
     let frames = l["frames"].as_array().expect("frames").len() as u64;

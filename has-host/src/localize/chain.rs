@@ -35,7 +35,9 @@
 //! `(Σw)²` (a static unit echo gives 1 at Doppler 0). Doppler bin `d` (signed) is
 //! `d/(doppler_fft·T)` Hz.
 //!
-//! **Detection.** CA-CFAR ([`has_dsp::cfar::CaCfar`]) along range for every (Doppler, beam) line.
+//! **Detection.** CA-CFAR ([`has_dsp::cfar::CaCfar`]) along range for every (Doppler, beam) line,
+//! told the power correlation of neighbouring range bins (zero-padded, windowed profiles) so that
+//! it holds its design false-alarm rate.
 //! An extended target fills many resolution cells, and its strong echo also crosses the CFAR
 //! threshold in the angle sidelobes of the beamformer (Taylor −35 dB) and in the range sidelobes;
 //! a hit therefore counts only if it lies within `extent_db` of the strongest cell of its
@@ -303,8 +305,34 @@ impl Chain {
         let sr: f64 = wr.iter().map(|&a| a as f64).sum();
         let sr2: f64 = wr.iter().map(|&a| (a * a) as f64).sum();
         let noise_cell = spec.noise_power() * sr2 / (sr * sr) * sum_s2 / (sum_s * sum_s);
-        let cfar =
-            CaCfar::new(spec.cfar_train, spec.cfar_guard, spec.cfar_pfa).map_err(dsp("cfar"))?;
+        // The CFAR runs along range over zero-padded, windowed profiles: neighbouring bins are
+        // correlated (noise ρ_m = Σ w_k²·e^{j2π·k·m/(n·zero_pad)} / Σ w_k², k the signed
+        // subcarrier offset), which the detector must know to hold its design false-alarm rate.
+        let n_sc = spec.subcarriers;
+        let power_corr: Vec<f64> = (1..spec.cfar_train)
+            .map(|m| {
+                let (mut re, mut im) = (0.0f64, 0.0f64);
+                for (k, &w) in wr.iter().enumerate() {
+                    let ks = if k < n_sc / 2 {
+                        k as f64
+                    } else {
+                        k as f64 - n_sc as f64
+                    };
+                    let ph = std::f64::consts::TAU * ks * m as f64 / (n_sc * spec.zero_pad) as f64;
+                    let w2 = (w * w) as f64;
+                    re += w2 * ph.cos();
+                    im += w2 * ph.sin();
+                }
+                ((re * re + im * im) / (sr2 * sr2)).min(1.0)
+            })
+            .collect();
+        let cfar = CaCfar::with_power_correlation(
+            spec.cfar_train,
+            spec.cfar_guard,
+            spec.cfar_pfa,
+            &power_corr,
+        )
+        .map_err(dsp("cfar"))?;
         Ok(Chain {
             rc,
             reference,
@@ -792,6 +820,49 @@ mod tests {
             // f32 data, f64 solve: error a few ulp of |y| ≈ 2.3.
             assert!((o - (i - mean)).norm() < 1e-5, "{o} vs {}", i - mean);
         }
+    }
+
+    #[test]
+    fn noise_alone_stays_near_the_design_false_alarm_rate() {
+        // A frame of receiver noise only (white complex Gaussian per subcarrier, element and
+        // symbol), range-compressed like an echo: the detector tests nb × beams × Doppler cells
+        // at the design pfa, so it should report about cells·pfa false alarms (≈ 0.09 for the
+        // quick chain at 1e-8); the extent test and one point per (range, beam) cell only remove
+        // hits. With the CFAR blind to the correlation of the zero-padded range bins, this frame
+        // gives 41. Poisson with mean ≤ 0.1: more than 3 has probability < 1e-5.
+        let mut spec = factory_spec();
+        spec.apply_quick();
+        spec.cfar_pfa = 1e-8;
+        let chain = Chain::new(&spec, crate::echo::qpsk_symbols(spec.subcarriers, 1)).unwrap();
+        let n = chain.symbol.len();
+        let mut s: u64 = 2024;
+        let mut uniform = move || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            ((s >> 11) as f64 + 1.0) / (1u64 << 53) as f64
+        };
+        let mut y = vec![C32::new(0.0, 0.0); n];
+        let mut profile = vec![C32::new(0.0, 0.0); chain.rc.profile_len()];
+        let mut frame = vec![C32::new(0.0, 0.0); chain.frame_len()];
+        for row in frame.chunks_exact_mut(chain.nb) {
+            for v in y.iter_mut() {
+                let (u, w) = (uniform(), uniform());
+                let r = (-u.ln()).sqrt();
+                let a = std::f64::consts::TAU * w;
+                *v = C32::new((r * a.cos()) as f32, (r * a.sin()) as f32);
+            }
+            chain.compress(&y, &mut profile, row).unwrap();
+        }
+        let cube = chain.process(&frame, Suppression::None).unwrap();
+        let cells = chain.nb * chain.beams() * chain.nd;
+        let det = chain.detect(&cube, None).unwrap();
+        assert!(
+            det.len() <= 3,
+            "{} detections on noise alone over {cells} cells at pfa {}",
+            det.len(),
+            chain.cfar.pfa()
+        );
     }
 
     #[test]
