@@ -64,6 +64,14 @@ pub struct MeshArgs {
     /// Screening weight α (Kazhdan & Hoppe 2013; 0 = unscreened).
     #[arg(long, default_value_t = 4.0)]
     pub screening: f32,
+    /// Adaptive fine levels: solve the levels whose full grid would exceed `--dense-max-nodes`
+    /// only within this many cells of the samples (1..=64), with the coarser solution as
+    /// boundary values. Omitted = full grids on every level.
+    #[arg(long)]
+    pub band: Option<u32>,
+    /// With `--band`: levels of at most this many nodes are solved on their full grid.
+    #[arg(long, default_value_t = PoissonParams::default().dense_max_nodes)]
+    pub dense_max_nodes: usize,
     /// Neighbours for PCA normals.
     #[arg(long, default_value_t = 16)]
     pub k: usize,
@@ -190,11 +198,14 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
     let params = PoissonParams {
         depth: a.depth,
         screening: a.screening,
+        band: a.band,
+        dense_max_nodes: a.dense_max_nodes,
         ..PoissonParams::default()
     };
     let t1 = Instant::now();
     let out = screened_poisson(&points, &normals, &params)
         .with_context(|| format!("{}: Poisson reconstruction", a.input.display()))?;
+    let peak_rss_poisson = crate::resources::peak_rss_mib();
     let mesh = match rule {
         Some(r) => trim(&out.mesh, &out.vertex_density, r)?,
         None => out.mesh.clone(),
@@ -247,6 +258,7 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
             "levels": out.levels,
         },
         "peak_rss_mib": crate::resources::peak_rss_mib(),
+        "peak_rss_after_poisson_mib": peak_rss_poisson,
         "time_s": {"normals": normals_s, "solve": out.solve_s, "extract": out.extract_s, "poisson_total": poisson_s},
     });
     let truth = match &a.truth {

@@ -67,120 +67,170 @@ pub fn marching_tetrahedra(field: &GridField<'_>, iso: f32, outside: f32) -> Tri
             field.values[(x - 1) + nx * ((y - 1) + ny * (z - 1))]
         }
     };
-    let pos = |x: usize, y: usize, z: usize| -> Vec3 {
-        field.origin + field.cell_m * Vec3::new(x as f32 - 1.0, y as f32 - 1.0, z as f32 - 1.0)
-    };
-    let key = |x: usize, y: usize, z: usize| -> u64 { (x + ex * (y + ey * z)) as u64 };
-    // Tetrahedron orientation signs (constant).
-    let tet_sign: [i64; 6] = TETS.map(|t| {
-        orient(
-            corner_offset(t[0]),
-            corner_offset(t[1]),
-            corner_offset(t[2]),
-            corner_offset(t[3]),
-        )
-    });
-    let mut mesh = TriMesh::default();
-    let mut edge_vertex: HashMap<(u64, u64), u32> = HashMap::new();
-    let mut vertex_on = |a: (u64, Vec3, f32), b: (u64, Vec3, f32), mesh: &mut TriMesh| -> u32 {
-        let k = if a.0 < b.0 { (a.0, b.0) } else { (b.0, a.0) };
-        *edge_vertex.entry(k).or_insert_with(|| {
-            // Interpolate from the lower key so that both cells compute the same point.
-            let (p, q) = if a.0 < b.0 { (a, b) } else { (b, a) };
-            let t = ((iso - p.2) / (q.2 - p.2)).clamp(0.0, 1.0);
-            mesh.vertices.push(p.1 + (q.1 - p.1) * t);
-            (mesh.vertices.len() - 1) as u32
-        })
-    };
+    let mut poly = Polygonizer::new(iso, field.origin, field.cell_m, [ex, ey, ez]);
     for z in 0..ez - 1 {
         for y in 0..ey - 1 {
             for x in 0..ex - 1 {
                 let mut cv = [0f32; 8];
-                let mut inside = 0u8;
                 for (c, v) in cv.iter_mut().enumerate() {
                     let o = corner_offset(c);
                     *v = value(x + o[0] as usize, y + o[1] as usize, z + o[2] as usize);
-                    if *v < iso {
-                        inside |= 1 << c;
-                    }
                 }
-                if inside == 0 || inside == 0xff {
-                    continue;
-                }
-                let node = |c: usize| -> (u64, Vec3, f32) {
-                    let o = corner_offset(c);
-                    let (xx, yy, zz) = (x + o[0] as usize, y + o[1] as usize, z + o[2] as usize);
-                    (key(xx, yy, zz), pos(xx, yy, zz), cv[c])
-                };
-                for (ti, t) in TETS.iter().enumerate() {
-                    let ins: Vec<usize> = t
-                        .iter()
-                        .copied()
-                        .filter(|&c| inside >> c & 1 == 1)
-                        .collect();
-                    let outs: Vec<usize> = t
-                        .iter()
-                        .copied()
-                        .filter(|&c| inside >> c & 1 == 0)
-                        .collect();
-                    // Reorder (a, b, c, d) = tet corners so that the odd/first group comes first,
-                    // then fix the orientation with the sign of the permutation's determinant.
-                    let positive = |q: [usize; 4]| -> bool {
-                        let s = orient(
-                            corner_offset(q[0]),
-                            corner_offset(q[1]),
-                            corner_offset(q[2]),
-                            corner_offset(q[3]),
-                        );
-                        debug_assert!(s != 0 && tet_sign[ti] != 0);
-                        s > 0
-                    };
-                    match (ins.len(), outs.len()) {
-                        (1, 3) | (3, 1) => {
-                            let (o, rest, o_inside) = if ins.len() == 1 {
-                                (ins[0], [outs[0], outs[1], outs[2]], true)
-                            } else {
-                                (outs[0], [ins[0], ins[1], ins[2]], false)
-                            };
-                            let (x1, mut y1, mut z1) = (rest[0], rest[1], rest[2]);
-                            if !positive([o, x1, y1, z1]) {
-                                std::mem::swap(&mut y1, &mut z1);
-                            }
-                            // For a positive tet (o, x, y, z), the triangle (ox, oy, oz) faces
-                            // away from o.
-                            let vo = node(o);
-                            let a = vertex_on(vo, node(x1), &mut mesh);
-                            let b = vertex_on(vo, node(y1), &mut mesh);
-                            let c = vertex_on(vo, node(z1), &mut mesh);
-                            if o_inside {
-                                mesh.faces.push([a, b, c]);
-                            } else {
-                                mesh.faces.push([a, c, b]);
-                            }
-                        }
-                        (2, 2) => {
-                            let (a, b) = (ins[0], ins[1]);
-                            let (mut c, mut d) = (outs[0], outs[1]);
-                            if !positive([a, b, c, d]) {
-                                std::mem::swap(&mut c, &mut d);
-                            }
-                            // For a positive tet with a, b inside: quad (ac, ad, bd, bc) faces
-                            // from the ab edge toward the cd edge, i.e. outward.
-                            let (na, nb, nc, nd) = (node(a), node(b), node(c), node(d));
-                            let ac = vertex_on(na, nc, &mut mesh);
-                            let ad = vertex_on(na, nd, &mut mesh);
-                            let bd = vertex_on(nb, nd, &mut mesh);
-                            let bc = vertex_on(nb, nc, &mut mesh);
-                            mesh.faces.push([ac, ad, bd]);
-                            mesh.faces.push([ac, bd, bc]);
-                        }
-                        _ => {}
-                    }
-                }
+                poly.cell([x, y, z], &cv);
             }
         }
     }
-    mesh
+    poly.finish()
+}
+
+/// Marching tetrahedra one cell at a time, on a grid of nodes addressed by integer coordinates
+/// of the grid extended by one virtual node on each side (node (x, y, z) sits at
+/// `origin + cell_m·(x − 1, y − 1, z − 1)`, `origin` being the first real node);
+/// vertices on an edge are shared by every cell that uses the edge (keyed by the two nodes), so
+/// cells may be visited in any order and any subset: a subset whose sign-changing cells are all
+/// visited gives the same closed surface as the whole grid.
+pub(crate) struct Polygonizer {
+    iso: f32,
+    origin: Vec3,
+    cell_m: f32,
+    dims: [usize; 3],
+    mesh: TriMesh,
+    edge_vertex: HashMap<(u64, u64), u32>,
+    /// Tetrahedron orientation signs (constant).
+    tet_sign: [i64; 6],
+}
+
+impl Polygonizer {
+    /// `origin`: position of extended node (1, 1, 1); `dims`: extended node counts (for keys).
+    pub(crate) fn new(iso: f32, origin: Vec3, cell_m: f32, dims: [usize; 3]) -> Polygonizer {
+        let tet_sign: [i64; 6] = TETS.map(|t| {
+            orient(
+                corner_offset(t[0]),
+                corner_offset(t[1]),
+                corner_offset(t[2]),
+                corner_offset(t[3]),
+            )
+        });
+        Polygonizer {
+            iso,
+            origin,
+            cell_m,
+            dims,
+            mesh: TriMesh::default(),
+            edge_vertex: HashMap::new(),
+            tet_sign,
+        }
+    }
+
+    /// The mesh built so far.
+    pub(crate) fn finish(self) -> TriMesh {
+        self.mesh
+    }
+
+    /// Polygonises the cell whose lowest corner is node `at`, with corner values `cv` (corner
+    /// c = dx + 2·dy + 4·dz).
+    pub(crate) fn cell(&mut self, at: [usize; 3], cv: &[f32; 8]) {
+        let iso = self.iso;
+        let mut inside = 0u8;
+        for (c, v) in cv.iter().enumerate() {
+            if *v < iso {
+                inside |= 1 << c;
+            }
+        }
+        if inside == 0 || inside == 0xff {
+            return;
+        }
+        let [x, y, z] = at;
+        let [ex, ey, _] = self.dims;
+        let (origin, cell_m) = (self.origin, self.cell_m);
+        let node = |c: usize| -> (u64, Vec3, f32) {
+            let o = corner_offset(c);
+            let (xx, yy, zz) = (x + o[0] as usize, y + o[1] as usize, z + o[2] as usize);
+            (
+                (xx + ex * (yy + ey * zz)) as u64,
+                origin + cell_m * Vec3::new(xx as f32 - 1.0, yy as f32 - 1.0, zz as f32 - 1.0),
+                cv[c],
+            )
+        };
+        let mesh = &mut self.mesh;
+        let edge_vertex = &mut self.edge_vertex;
+        let mut vertex_on = |a: (u64, Vec3, f32), b: (u64, Vec3, f32), mesh: &mut TriMesh| -> u32 {
+            let k = if a.0 < b.0 { (a.0, b.0) } else { (b.0, a.0) };
+            *edge_vertex.entry(k).or_insert_with(|| {
+                // Interpolate from the lower key so that both cells compute the same point.
+                let (p, q) = if a.0 < b.0 { (a, b) } else { (b, a) };
+                let t = ((iso - p.2) / (q.2 - p.2)).clamp(0.0, 1.0);
+                mesh.vertices.push(p.1 + (q.1 - p.1) * t);
+                (mesh.vertices.len() - 1) as u32
+            })
+        };
+        let tet_sign = self.tet_sign;
+        for (ti, t) in TETS.iter().enumerate() {
+            let ins: Vec<usize> = t
+                .iter()
+                .copied()
+                .filter(|&c| inside >> c & 1 == 1)
+                .collect();
+            let outs: Vec<usize> = t
+                .iter()
+                .copied()
+                .filter(|&c| inside >> c & 1 == 0)
+                .collect();
+            // Reorder (a, b, c, d) = tet corners so that the odd/first group comes first,
+            // then fix the orientation with the sign of the permutation's determinant.
+            let positive = |q: [usize; 4]| -> bool {
+                let s = orient(
+                    corner_offset(q[0]),
+                    corner_offset(q[1]),
+                    corner_offset(q[2]),
+                    corner_offset(q[3]),
+                );
+                debug_assert!(s != 0 && tet_sign[ti] != 0);
+                s > 0
+            };
+            match (ins.len(), outs.len()) {
+                (1, 3) | (3, 1) => {
+                    let (o, rest, o_inside) = if ins.len() == 1 {
+                        (ins[0], [outs[0], outs[1], outs[2]], true)
+                    } else {
+                        (outs[0], [ins[0], ins[1], ins[2]], false)
+                    };
+                    let (x1, mut y1, mut z1) = (rest[0], rest[1], rest[2]);
+                    if !positive([o, x1, y1, z1]) {
+                        std::mem::swap(&mut y1, &mut z1);
+                    }
+                    // For a positive tet (o, x, y, z), the triangle (ox, oy, oz) faces
+                    // away from o.
+                    let vo = node(o);
+                    let a = vertex_on(vo, node(x1), mesh);
+                    let b = vertex_on(vo, node(y1), mesh);
+                    let c = vertex_on(vo, node(z1), mesh);
+                    if o_inside {
+                        mesh.faces.push([a, b, c]);
+                    } else {
+                        mesh.faces.push([a, c, b]);
+                    }
+                }
+                (2, 2) => {
+                    let (a, b) = (ins[0], ins[1]);
+                    let (mut c, mut d) = (outs[0], outs[1]);
+                    if !positive([a, b, c, d]) {
+                        std::mem::swap(&mut c, &mut d);
+                    }
+                    // For a positive tet with a, b inside: quad (ac, ad, bd, bc) faces
+                    // from the ab edge toward the cd edge, i.e. outward.
+                    let (na, nb, nc, nd) = (node(a), node(b), node(c), node(d));
+                    let ac = vertex_on(na, nc, mesh);
+                    let ad = vertex_on(na, nd, mesh);
+                    let bd = vertex_on(nb, nd, mesh);
+                    let bc = vertex_on(nb, nc, mesh);
+                    mesh.faces.push([ac, ad, bd]);
+                    mesh.faces.push([ac, bd, bc]);
+                }
+                _ => {}
+            }
+        }
+    }
 }
 
 #[cfg(test)]

@@ -7,6 +7,7 @@
 //! *edge-manifold* when no undirected edge is used by more than two faces and the two uses run in
 //! opposite directions, and *watertight* when, in addition, every edge is used exactly twice.
 
+pub mod band;
 pub mod iso;
 pub mod normals;
 pub mod poisson;

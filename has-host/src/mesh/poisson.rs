@@ -18,11 +18,23 @@
 //!
 //! How it is solved (a cascadic multigrid): the same system is assembled on `levels + 1` nested
 //! grids (cell sizes h·2^j), solved by Jacobi-preconditioned conjugate gradients on the coarsest,
-//! and each solution, trilinearly prolonged, starts CG on the next finer grid. The grids are
-//! regular and cover the padded bounding box of the samples — **not** an adaptive octree: memory
-//! and time grow with the box volume at the finest cell size, not with the surface area. The
-//! iso-value is the mean of χ at the samples (K&H); the surface is extracted on every cell of the
-//! finest grid, closed by a ring of outside nodes, so the untrimmed mesh is watertight.
+//! and each solution, trilinearly prolonged, starts CG on the next finer grid. By default
+//! ([`PoissonParams::band`] = `None`) every grid is regular and covers the padded bounding box
+//! of the samples: memory and time grow with the box volume at the finest cell size, not with
+//! the surface area. The iso-value is the mean of χ at the samples (K&H); the surface is
+//! extracted on every cell of the finest grid, closed by a ring of outside nodes, so the
+//! untrimmed mesh is watertight.
+//!
+//! Adaptive fine levels ([`PoissonParams::band`] = `Some(w)`, [`super::band`]): the levels whose
+//! full grid would exceed [`PoissonParams::dense_max_nodes`] nodes are solved only on the nodes
+//! within `w` cells of a cell holding a sample (an octree-like refinement: a cell is refined only
+//! near the samples), with the coarser level's prolonged solution as Dirichlet values just
+//! outside the band; memory and time then grow with the sampled area (O(samples·w³) at worst),
+//! the full grids only up to the node budget. Outside the band χ is the prolonged coarser
+//! solution, so where the surface leaves the samples (the extrapolated closure of open parts)
+//! it is the coarse surface, still watertight (no holes where it crosses the band's edge), only
+//! at the coarse level's accuracy. This is still a nested-grid band, not K&H's octree of
+//! B-spline functions.
 //!
 //! Trimming ([`trim_by_density`]) follows Open3D's habit: each vertex carries a support density,
 //! here the k-nearest-neighbour estimate k/(π·r_k²) in samples per m² (r_k the distance from the
@@ -35,6 +47,7 @@ use std::time::Instant;
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::band::Hierarchy;
 use super::iso::{marching_tetrahedra, GridField};
 use super::normals::{covariance, symmetric_eigen3};
 use super::TriMesh;
@@ -79,6 +92,14 @@ pub struct PoissonParams {
     pub area_k: usize,
     /// Neighbours k of the vertex support density k/(π·r_k²).
     pub density_k: usize,
+    /// Adaptive fine levels ([`super::band`]): `Some(w)` solves every level whose full grid
+    /// would have more than `dense_max_nodes` nodes only on the nodes within `w` cells (per
+    /// axis) of a cell holding a sample, with the coarser solution as Dirichlet values around
+    /// them; `None` solves every level on its full grid. w in 1..=64.
+    pub band: Option<u32>,
+    /// With `band`: levels with at most this many nodes are solved on their full grid (the
+    /// coarsest level always is). At most [`MAX_NODES`].
+    pub dense_max_nodes: usize,
 }
 
 impl Default for PoissonParams {
@@ -92,6 +113,8 @@ impl Default for PoissonParams {
             padding: 0.1,
             area_k: 8,
             density_k: 8,
+            band: None,
+            dense_max_nodes: 1 << 20,
         }
     }
 }
@@ -107,6 +130,8 @@ pub struct LevelStats {
     pub cg_iterations: usize,
     /// Final ‖r‖/‖b‖.
     pub relative_residual: f64,
+    /// Nodes solved for: every node of a full grid, the band's unknowns on a banded level.
+    pub unknowns: usize,
 }
 
 /// Result of [`screened_poisson`].
@@ -166,26 +191,41 @@ fn check_params(p: &PoissonParams) -> Result<(), GeometryError> {
     if p.density_k == 0 {
         return Err(bad("density_k", 0.0, "at least 1"));
     }
+    if let Some(w) = p.band {
+        if !(1..=64).contains(&w) {
+            return Err(bad("band", w as f64, "in 1..=64 cells"));
+        }
+    }
+    if !(1..=MAX_NODES).contains(&p.dense_max_nodes) {
+        return Err(bad(
+            "dense_max_nodes",
+            p.dense_max_nodes as f64,
+            "in 1..=40 M nodes",
+        ));
+    }
     Ok(())
 }
 
 /// A regular grid of nodes.
 #[derive(Clone, Copy, Debug)]
-struct Grid {
-    dims: [usize; 3],
-    origin: Vec3,
-    h: f32,
+pub(super) struct Grid {
+    /// Node counts.
+    pub dims: [usize; 3],
+    /// Position of node (0, 0, 0).
+    pub origin: Vec3,
+    /// Node spacing.
+    pub h: f32,
 }
 
 impl Grid {
-    fn len(&self) -> usize {
+    pub fn len(&self) -> usize {
         self.dims[0] * self.dims[1] * self.dims[2]
     }
-    fn idx(&self, x: usize, y: usize, z: usize) -> usize {
+    pub fn idx(&self, x: usize, y: usize, z: usize) -> usize {
         x + self.dims[0] * (y + self.dims[1] * z)
     }
     /// Cell (clamped into the grid) and fractional position of p within it.
-    fn locate(&self, p: Vec3) -> ([usize; 3], Vec3) {
+    pub fn locate(&self, p: Vec3) -> ([usize; 3], Vec3) {
         let u = (p - self.origin) / self.h;
         let mut c = [0usize; 3];
         let mut f = Vec3::ZERO;
@@ -208,7 +248,7 @@ impl Grid {
 }
 
 /// The 8 corner offsets of a cell with their trilinear weights at fractional position f.
-fn corner_weights(f: Vec3) -> [([usize; 3], f32); 8] {
+pub(super) fn corner_weights(f: Vec3) -> [([usize; 3], f32); 8] {
     let mut out = [([0usize; 3], 0f32); 8];
     for (c, slot) in out.iter_mut().enumerate() {
         let o = [c & 1, (c >> 1) & 1, (c >> 2) & 1];
@@ -458,24 +498,31 @@ fn dot(a: &[f32], b: &[f32]) -> f64 {
         .sum()
 }
 
-/// Jacobi-preconditioned CG from the initial guess in `x`; returns (iterations, ‖r‖/‖b‖).
-fn cg(sys: &System, x: &mut [f32], tol: f32, max_iter: usize) -> (usize, f64) {
+/// Jacobi-preconditioned CG on A·x = b (A applied by `apply`, `diag` its diagonal) from the
+/// initial guess in `x`, stopping at ‖r‖ ≤ tol·`bnorm`; returns (iterations, ‖r‖/`bnorm`).
+pub(super) fn pcg(
+    apply: impl Fn(&[f32], &mut [f32]),
+    b: &[f32],
+    diag: &[f32],
+    bnorm: f64,
+    x: &mut [f32],
+    tol: f32,
+    max_iter: usize,
+) -> (usize, f64) {
     let n = x.len();
-    let bnorm = dot(&sys.b, &sys.b).sqrt();
     if bnorm == 0.0 {
-        x.iter_mut().for_each(|v| *v = 0.0);
         return (0, 0.0);
     }
     let mut ap = vec![0f32; n];
-    sys.apply(x, &mut ap);
-    let mut r: Vec<f32> = sys.b.par_iter().zip(&ap).map(|(b, a)| b - a).collect();
-    let mut z: Vec<f32> = r.par_iter().zip(&sys.diag).map(|(r, d)| r / d).collect();
+    apply(x, &mut ap);
+    let mut r: Vec<f32> = b.par_iter().zip(&ap).map(|(b, a)| b - a).collect();
+    let mut z: Vec<f32> = r.par_iter().zip(diag).map(|(r, d)| r / d).collect();
     let mut p = z.clone();
     let mut rz = dot(&r, &z);
     let mut rel = dot(&r, &r).sqrt() / bnorm;
     let mut it = 0;
     while it < max_iter && rel > tol as f64 {
-        sys.apply(&p, &mut ap);
+        apply(&p, &mut ap);
         let pap = dot(&p, &ap);
         if pap <= 0.0 {
             break;
@@ -485,7 +532,7 @@ fn cg(sys: &System, x: &mut [f32], tol: f32, max_iter: usize) -> (usize, f64) {
         r.par_iter_mut().zip(&ap).for_each(|(r, a)| *r -= alpha * a);
         z.par_iter_mut()
             .zip(&r)
-            .zip(&sys.diag)
+            .zip(diag)
             .for_each(|((z, r), d)| *z = r / d);
         let rz_new = dot(&r, &z);
         let beta = (rz_new / rz) as f32;
@@ -497,6 +544,24 @@ fn cg(sys: &System, x: &mut [f32], tol: f32, max_iter: usize) -> (usize, f64) {
         it += 1;
     }
     (it, rel)
+}
+
+/// [`pcg`] on a full-grid system, stopping relative to ‖b‖ (x = 0 when b = 0).
+fn cg(sys: &System, x: &mut [f32], tol: f32, max_iter: usize) -> (usize, f64) {
+    let bnorm = dot(&sys.b, &sys.b).sqrt();
+    if bnorm == 0.0 {
+        x.iter_mut().for_each(|v| *v = 0.0);
+        return (0, 0.0);
+    }
+    pcg(
+        |v, y| sys.apply(v, y),
+        &sys.b,
+        &sys.diag,
+        bnorm,
+        x,
+        tol,
+        max_iter,
+    )
 }
 
 /// Trilinear prolongation from a grid to the next finer one (node 2i of the fine grid is node i
@@ -540,7 +605,8 @@ fn prolong(coarse: &Grid, cv: &[f32], fine: &Grid) -> Vec<f32> {
 /// # Errors
 /// Bad parameters; empty, non-finite or too few (< 4, < `area_k` + 1) points; normals of another
 /// length than the points, non-finite or zero; all points on one plane or line
-/// ([`GeometryError::Degenerate`]); a finest grid above [`MAX_NODES`].
+/// ([`GeometryError::Degenerate`]); a finest full grid (the finest grid, or with
+/// [`PoissonParams::band`] the finest one solved in full) above [`MAX_NODES`].
 pub fn screened_poisson(
     points: &[Vec3],
     normals: &[Vec3],
@@ -603,12 +669,20 @@ pub fn screened_poisson(
         cells[a] = rounded;
         origin[a] = lo[a] - (pad_cells as f32 + (rounded - raw) as f32 / 2.0) * h;
     }
-    let nodes: usize = cells.iter().map(|c| c + 1).product();
-    if nodes > MAX_NODES {
+    let full_nodes = |j: u32| -> usize { cells.iter().map(|c| c / (1 << j) + 1).product() };
+    // Levels 0 (finest) ..= levels; level j is banded when it is too large as a full grid
+    // (node counts fall with j, so the banded levels are the finest ones).
+    let banded = |j: u32| {
+        params.band.is_some() && j < params.levels && full_nodes(j) > params.dense_max_nodes
+    };
+    let finest_dense = (0..=params.levels)
+        .find(|&j| !banded(j))
+        .unwrap_or(params.levels);
+    if full_nodes(finest_dense) > MAX_NODES {
         return Err(bad(
             "depth",
             params.depth as f64,
-            "small enough that the finest grid has at most 40 M nodes",
+            "small enough that the finest full grid has at most 40 M nodes (or use a band)",
         ));
     }
     // Per-sample area share aₚ = π r_k² / k.
@@ -623,9 +697,21 @@ pub fn screened_poisson(
             (std::f32::consts::PI * r2 / k as f32).max(min_area)
         })
         .collect();
+    // Each sample's cell on the finest grid (banded levels derive theirs by halving).
+    let finest = Grid {
+        dims: cells.map(|c| c + 1),
+        origin,
+        h,
+    };
+    let fine_cell: Vec<[usize; 3]> = if finest_dense > 0 {
+        points.par_iter().map(|&p| finest.locate(p).0).collect()
+    } else {
+        Vec::new()
+    };
     // Cascadic solve, coarse to fine.
     let mut levels = Vec::new();
     let mut prev: Option<(Grid, Vec<f32>)> = None;
+    let mut hier: Option<Hierarchy> = None;
     for j in (0..=params.levels).rev() {
         let f = 1usize << j;
         let grid = Grid {
@@ -633,37 +719,60 @@ pub fn screened_poisson(
             origin,
             h: h * f as f32,
         };
-        let sys = System::assemble(grid, points, &normals, &area, params.screening);
-        let mut x = match &prev {
-            Some((g, v)) => prolong(g, v, &grid),
-            None => vec![0f32; grid.len()],
+        let (unknowns, its, rel) = if let (Some(w), true) = (params.band, banded(j)) {
+            let hier = hier.get_or_insert_with(|| {
+                let (dense, dense_x) = prev.take().expect("the coarsest level is full");
+                Hierarchy {
+                    dense,
+                    dense_x,
+                    bands: Vec::new(),
+                }
+            });
+            hier.solve_next(
+                grid,
+                w,
+                points,
+                &normals,
+                &area,
+                &fine_cell,
+                j,
+                params.screening,
+                params.cg_tolerance,
+                params.max_cg_iterations,
+            )
+        } else {
+            let sys = System::assemble(grid, points, &normals, &area, params.screening);
+            let mut x = match &prev {
+                Some((g, v)) => prolong(g, v, &grid),
+                None => vec![0f32; grid.len()],
+            };
+            let (its, rel) = cg(&sys, &mut x, params.cg_tolerance, params.max_cg_iterations);
+            prev = Some((grid, x));
+            (grid.len(), its, rel)
         };
-        let (its, rel) = cg(&sys, &mut x, params.cg_tolerance, params.max_cg_iterations);
         levels.push(LevelStats {
             cell_m: grid.h,
             dims: grid.dims,
             cg_iterations: its,
             relative_residual: rel,
+            unknowns,
         });
-        prev = Some((grid, x));
     }
-    let (grid, chi) = prev.expect("at least one level");
     let solve_s = t_solve.elapsed().as_secs_f64();
     let t_ex = Instant::now();
-    let iso = (points
-        .par_iter()
-        .map(|&p| grid.interpolate(&chi, p) as f64)
-        .sum::<f64>()
-        / points.len() as f64) as f32;
-    let max_chi = chi.iter().copied().fold(f32::MIN, f32::max);
-    let outside = max_chi.max(iso) + 1.0;
-    let field = GridField {
-        dims: grid.dims,
-        origin: grid.origin,
-        cell_m: grid.h,
-        values: &chi,
+    let (mesh, iso) = match &hier {
+        Some(hier) => {
+            let iso = hier.mean_at(points, &fine_cell);
+            let outside = hier.max_value().max(iso) + 1.0;
+            (hier.extract(iso, outside), iso)
+        }
+        None => {
+            let (grid, chi) = prev.as_ref().expect("at least one level");
+            dense_surface(grid, chi, points)
+        }
     };
-    let mesh = marching_tetrahedra(&field, iso, outside);
+    drop(hier);
+    drop(prev);
     let vertex_density = support_density_with(
         &index,
         points.len(),
@@ -677,11 +786,30 @@ pub fn screened_poisson(
         vertex_density,
         iso_value: iso,
         cell_m: h,
-        dims: grid.dims,
+        dims: finest.dims,
         levels,
         solve_s,
         extract_s,
     })
+}
+
+/// The closed iso-surface of a full-grid solution at the mean of χ over the samples, and
+/// that iso-value.
+fn dense_surface(grid: &Grid, chi: &[f32], points: &[Vec3]) -> (TriMesh, f32) {
+    let iso = (points
+        .par_iter()
+        .map(|&p| grid.interpolate(chi, p) as f64)
+        .sum::<f64>()
+        / points.len() as f64) as f32;
+    let max_chi = chi.iter().copied().fold(f32::MIN, f32::max);
+    let outside = max_chi.max(iso) + 1.0;
+    let field = GridField {
+        dims: grid.dims,
+        origin: grid.origin,
+        cell_m: grid.h,
+        values: chi,
+    };
+    (marching_tetrahedra(&field, iso, outside), iso)
 }
 
 /// Support density of each of `vertices` with respect to the samples `points`: k/(π·r_k²) in
