@@ -66,10 +66,13 @@ pub struct MeshArgs {
     pub screening: f32,
     /// Adaptive fine levels: solve the levels whose full grid would exceed `--dense-max-nodes`
     /// only within this many cells of the samples (1..=64), with the coarser solution as
-    /// boundary values. Omitted = full grids on every level.
+    /// boundary values.
+    #[arg(long, default_value_t = PoissonParams::default().band.unwrap_or(2))]
+    pub band: u32,
+    /// Solve every level on its full grid (no band): memory and time grow with the box volume.
     #[arg(long)]
-    pub band: Option<u32>,
-    /// With `--band`: levels of at most this many nodes are solved on their full grid.
+    pub full_grid: bool,
+    /// With the band: levels of at most this many nodes are solved on their full grid.
     #[arg(long, default_value_t = PoissonParams::default().dense_max_nodes)]
     pub dense_max_nodes: usize,
     /// Neighbours for PCA normals.
@@ -198,7 +201,7 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
     let params = PoissonParams {
         depth: a.depth,
         screening: a.screening,
-        band: a.band,
+        band: (!a.full_grid).then_some(a.band),
         dense_max_nodes: a.dense_max_nodes,
         ..PoissonParams::default()
     };

@@ -288,6 +288,12 @@ impl Hierarchy {
             max_iter,
         );
         drop(sys);
+        // The neighbour table and the ring serve the solve only.
+        let band = Band {
+            nbr: Vec::new(),
+            ring: Vec::new(),
+            ..band
+        };
         self.bands.push((band, x));
         (n, its, rel)
     }
@@ -380,6 +386,7 @@ impl Hierarchy {
         let cand = sort_dedup(cand);
         let mut poly = Polygonizer::new(iso, fine.origin, fine.h, [nx + 2, ny + 2, nz + 2]);
         let m = f + 1;
+        let mut layer = usize::MAX;
         for chunk in cand.chunks(4096) {
             let blocks: Vec<Vec<f32>> = chunk
                 .par_iter()
@@ -387,6 +394,18 @@ impl Hierarchy {
                 .collect();
             for (&k, block) in chunk.iter().zip(&blocks) {
                 let c = decode(k, cd);
+                let border = (0..3).any(|a| c[a] == 0 || c[a] + 1 == cd[a]);
+                let inside = block.iter().filter(|&&v| v < iso).count();
+                if inside == 0 || (inside == block.len() && !border) {
+                    // No sign change in the block, nor against the outside ring.
+                    continue;
+                }
+                if c[2] != layer {
+                    // Cells are visited in z-major order: nothing below this layer's lowest
+                    // extended node (c_z·f + 1; the ring at 0 only for c_z = 0) comes back.
+                    layer = c[2];
+                    poly.forget_below(c[2] * f);
+                }
                 let base = c.map(|v| v * f);
                 // Extended node coordinates e = fine + 1; the outside ring at 0 and n + 1.
                 let lo: [usize; 3] = [0, 1, 2].map(|a| base[a] + 1 - (c[a] == 0) as usize);
@@ -744,6 +763,7 @@ mod tests {
         let full_p = PoissonParams {
             depth: 6,
             levels: 3,
+            band: None,
             ..PoissonParams::default()
         };
         let full = screened_poisson(&pts, &nrm, &full_p).unwrap();
@@ -834,6 +854,7 @@ mod tests {
         let (pts, nrm) = noisy_sphere(1500, Vec3::ZERO, 1.0, 0.0, 7);
         let full = PoissonParams {
             depth: 9,
+            band: None,
             levels: 3,
             ..PoissonParams::default()
         };

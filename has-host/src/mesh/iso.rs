@@ -69,6 +69,7 @@ pub fn marching_tetrahedra(field: &GridField<'_>, iso: f32, outside: f32) -> Tri
     };
     let mut poly = Polygonizer::new(iso, field.origin, field.cell_m, [ex, ey, ez]);
     for z in 0..ez - 1 {
+        poly.forget_below(z);
         for y in 0..ey - 1 {
             for x in 0..ex - 1 {
                 let mut cv = [0f32; 8];
@@ -119,6 +120,16 @@ impl Polygonizer {
             mesh: TriMesh::default(),
             edge_vertex: HashMap::new(),
             tet_sign,
+        }
+    }
+
+    /// Drops the shared-vertex entries of edges whose nodes both lie below node layer `z`:
+    /// call it when no cell reaching below `z` will be visited any more (cells visited in
+    /// z-major order), so that the table holds about one layer of the surface, not all of it.
+    pub(crate) fn forget_below(&mut self, z: usize) {
+        let layer = (self.dims[0] * self.dims[1]) as u64;
+        if z > 0 {
+            self.edge_vertex.retain(|&(_, b), _| b / layer >= z as u64);
         }
     }
 

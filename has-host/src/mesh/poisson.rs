@@ -95,10 +95,13 @@ pub struct PoissonParams {
     /// Adaptive fine levels ([`super::band`]): `Some(w)` solves every level whose full grid
     /// would have more than `dense_max_nodes` nodes only on the nodes within `w` cells (per
     /// axis) of a cell holding a sample, with the coarser solution as Dirichlet values around
-    /// them; `None` solves every level on its full grid. w in 1..=64.
+    /// them; `None` solves every level on its full grid. w in 1..=64. Default `Some(2)`: on the
+    /// factory cloud at depth 8 it scored as the full grid (√CD 0.837 m either way, F(1.5 m)
+    /// 95.64 vs 95.69) with the solve ≈ 10 times faster and half the memory of the Poisson stage.
     pub band: Option<u32>,
     /// With `band`: levels with at most this many nodes are solved on their full grid (the
-    /// coarsest level always is). At most [`MAX_NODES`].
+    /// coarsest level always is). At most [`MAX_NODES`]. Default 2^17: full grids of a few
+    /// 10⁵ nodes converge in 100–150 CG iterations where a band needs 20–40.
     pub dense_max_nodes: usize,
 }
 
@@ -113,8 +116,8 @@ impl Default for PoissonParams {
             padding: 0.1,
             area_k: 8,
             density_k: 8,
-            band: None,
-            dense_max_nodes: 1 << 20,
+            band: Some(2),
+            dense_max_nodes: 1 << 17,
         }
     }
 }
@@ -132,6 +135,8 @@ pub struct LevelStats {
     pub relative_residual: f64,
     /// Nodes solved for: every node of a full grid, the band's unknowns on a banded level.
     pub unknowns: usize,
+    /// Seconds for this level (band construction, assembly, prolongation and CG).
+    pub seconds: f64,
 }
 
 /// Result of [`screened_poisson`].
@@ -719,6 +724,7 @@ pub fn screened_poisson(
             origin,
             h: h * f as f32,
         };
+        let t_level = Instant::now();
         let (unknowns, its, rel) = if let (Some(w), true) = (params.band, banded(j)) {
             let hier = hier.get_or_insert_with(|| {
                 let (dense, dense_x) = prev.take().expect("the coarsest level is full");
@@ -756,6 +762,7 @@ pub fn screened_poisson(
             cg_iterations: its,
             relative_residual: rel,
             unknowns,
+            seconds: t_level.elapsed().as_secs_f64(),
         });
     }
     let solve_s = t_solve.elapsed().as_secs_f64();
