@@ -12,7 +12,7 @@ use has_host::mesh::{
     estimate_normals, screened_poisson, trim, Orientation, PoissonParams, TriMesh, Trim,
 };
 use has_host::metrics::{CloudComparison, REPORT_THRESHOLDS_M};
-use has_host::{Material, Object};
+use has_host::Material;
 
 /// Options of the `mesh` subcommand.
 #[derive(clap::Args, Debug)]
@@ -130,20 +130,40 @@ fn summary_line(name: &str, m: &serde_json::Value) -> String {
     )
 }
 
-/// Writes `mesh` as OBJ (one object, concrete) and optionally as PLY with vertex densities.
+/// Writes `mesh` as OBJ (one object, concrete; the format of [`has_host::io::obj::write_obj`],
+/// written straight from the indexed mesh without a triangle-soup copy) and optionally as PLY
+/// with vertex densities.
 pub fn write_mesh(
     mesh: &TriMesh,
     obj: &Path,
     ply_path: Option<&Path>,
     density: Option<&[f32]>,
 ) -> anyhow::Result<()> {
-    let tris = has_host::metrics::indexed_triangles(&mesh.vertices, &mesh.faces)?;
-    let object = Object {
-        name: "mesh".into(),
-        material: Material::Concrete,
-        triangles: tris,
-    };
-    has_host::io::obj::write_obj(obj, &[object])?;
+    let n = mesh.vertices.len();
+    if let Some((i, f)) = mesh
+        .faces
+        .iter()
+        .enumerate()
+        .find(|(_, f)| f.iter().any(|&v| v as usize >= n))
+    {
+        bail!("mesh face {i} {f:?} indexes past the {n} vertices");
+    }
+    if let Some(i) = mesh.vertices.iter().position(|v| !v.is_finite()) {
+        bail!("mesh vertex {i} is not finite: {:?}", mesh.vertices[i]);
+    }
+    has_host::io::atomic_write(obj, |w| {
+        use std::io::Write;
+        writeln!(w, "# written by has: metres, z up")?;
+        writeln!(w, "o mesh")?;
+        writeln!(w, "usemtl itu_{}", Material::Concrete.name())?;
+        for v in &mesh.vertices {
+            writeln!(w, "v {} {} {}", v.x, v.y, v.z)?;
+        }
+        for f in &mesh.faces {
+            writeln!(w, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1)?;
+        }
+        Ok(())
+    })?;
     if let Some(p) = ply_path {
         let mut data = PlyData {
             vertices: mesh.vertices.clone(),

@@ -16,6 +16,7 @@ pub mod visibility;
 use std::collections::HashMap;
 
 use glam::Vec3;
+use rayon::prelude::*;
 
 use crate::knn::GeometryError;
 use crate::metrics;
@@ -88,10 +89,9 @@ impl TriMesh {
 
     /// Edge-use counting (see the module docs). Face indices must be valid ([`Self::validate`]).
     pub fn topology(&self) -> Topology {
-        // Per undirected edge: (uses a<b direction, uses b<a direction).
-        let mut uses: HashMap<(u32, u32), (u32, u32)> =
-            HashMap::with_capacity(self.faces.len() * 3 / 2);
+        // Directed edges a → b as sorted keys a·2³² + b (8 bytes per face side, no hash table).
         let mut degenerate_faces = 0;
+        let mut half: Vec<u64> = Vec::with_capacity(self.faces.len() * 3);
         for f in &self.faces {
             if f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
                 degenerate_faces += 1;
@@ -99,29 +99,43 @@ impl TriMesh {
             }
             for k in 0..3 {
                 let (a, b) = (f[k], f[(k + 1) % 3]);
-                let e = uses.entry((a.min(b), a.max(b))).or_default();
-                if a < b {
-                    e.0 += 1;
-                } else {
-                    e.1 += 1;
-                }
+                half.push((a as u64) << 32 | b as u64);
             }
         }
+        half.par_sort_unstable();
+        let count = |key: u64| -> u32 {
+            (half.partition_point(|&h| h <= key) - half.partition_point(|&h| h < key)) as u32
+        };
         let mut t = Topology {
-            edges: uses.len(),
             degenerate_faces,
             ..Topology::default()
         };
-        for &(fwd, back) in uses.values() {
-            match fwd + back {
-                1 => t.boundary_edges += 1,
-                2 => {
-                    if fwd != 1 {
-                        t.misoriented_edges += 1;
-                    }
-                }
-                _ => t.nonmanifold_edges += 1,
+        let mut i = 0;
+        while i < half.len() {
+            let key = half[i];
+            let mut j = i + 1;
+            while j < half.len() && half[j] == key {
+                j += 1;
             }
+            let (a, b) = ((key >> 32) as u32, key as u32);
+            let n = (j - i) as u32;
+            let reverse = count((b as u64) << 32 | a as u64);
+            // Each undirected edge once: from its a < b direction, or from the other one when
+            // that is its only direction. fwd = uses in the a < b direction.
+            if a < b || reverse == 0 {
+                let (fwd, back) = if a < b { (n, reverse) } else { (0, n) };
+                t.edges += 1;
+                match fwd + back {
+                    1 => t.boundary_edges += 1,
+                    2 => {
+                        if fwd != 1 {
+                            t.misoriented_edges += 1;
+                        }
+                    }
+                    _ => t.nonmanifold_edges += 1,
+                }
+            }
+            i = j;
         }
         t.manifold = t.nonmanifold_edges == 0 && t.misoriented_edges == 0 && degenerate_faces == 0;
         t.watertight = t.manifold && t.boundary_edges == 0 && !self.faces.is_empty();
@@ -392,6 +406,59 @@ mod tests {
         fin.faces.push([0, 1, 2]);
         assert_eq!(fin.topology().nonmanifold_edges, 3);
         assert!((t.area_m2() - (1.5 + 3f64.sqrt() / 2.0)).abs() < 1e-6);
+    }
+
+    /// Edge-use counting with a hash map per undirected edge (the definition, directly).
+    fn reference_topology(m: &TriMesh) -> Topology {
+        let mut uses: HashMap<(u32, u32), (u32, u32)> = HashMap::new();
+        let mut t = Topology::default();
+        for f in &m.faces {
+            if f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
+                t.degenerate_faces += 1;
+                continue;
+            }
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                let e = uses.entry((a.min(b), a.max(b))).or_default();
+                if a < b {
+                    e.0 += 1;
+                } else {
+                    e.1 += 1;
+                }
+            }
+        }
+        t.edges = uses.len();
+        for &(fwd, back) in uses.values() {
+            match fwd + back {
+                1 => t.boundary_edges += 1,
+                2 if fwd != 1 => t.misoriented_edges += 1,
+                2 => {}
+                _ => t.nonmanifold_edges += 1,
+            }
+        }
+        t.manifold =
+            t.nonmanifold_edges == 0 && t.misoriented_edges == 0 && t.degenerate_faces == 0;
+        t.watertight = t.manifold && t.boundary_edges == 0 && !m.faces.is_empty();
+        t
+    }
+
+    #[test]
+    fn sorted_edge_topology_matches_the_hash_map_definition() {
+        use rand::{Rng, SeedableRng};
+        // Random face soups over few vertices: every defect (boundary, both-direction and
+        // one-direction double uses, fans of 3+, degenerate faces) occurs.
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        for n_faces in [0, 1, 5, 40, 300] {
+            let m = TriMesh {
+                vertices: vec![Vec3::ZERO; 12],
+                faces: (0..n_faces)
+                    .map(|_| [0; 3].map(|_| rng.random_range(0..12u32)))
+                    .collect(),
+            };
+            assert_eq!(m.topology(), reference_topology(&m), "{n_faces} faces");
+        }
+        let t = tetra();
+        assert_eq!(t.topology(), reference_topology(&t));
     }
 
     #[test]
