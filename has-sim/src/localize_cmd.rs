@@ -32,8 +32,12 @@ pub struct LocalizeArgs {
     pub quick: bool,
     /// The digital twin (OBJ/PLY/XML mesh of the reconstructed environment). Default: run
     /// `reconstruct` on the same scenario into DIR/twin and use its mesh.obj.
-    #[arg(long)]
+    #[arg(long, conflicts_with = "truth_twin")]
     pub twin: Option<PathBuf>,
+    /// Use the true scene's buildings (every object but the `[localize] ground_objects`) as the
+    /// twin: an oracle, the environment prior's ceiling with a perfect reconstruction.
+    #[arg(long)]
+    pub truth_twin: bool,
 }
 
 fn load(args: &LocalizeArgs) -> Result<(ImagingScenario, LocalizeSpec, String)> {
@@ -79,17 +83,32 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
     let (sc, spec, scenario_name) = load(&args)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
-    let (twin_path, twin_built_s) = match &args.twin {
-        Some(p) => (p.clone(), None),
-        None => {
-            let t = Instant::now();
-            let p = build_twin(args.scenario.clone(), &args.out.join("twin"), args.quick)?;
-            (p, Some(t.elapsed().as_secs_f64()))
-        }
-    };
-    let twin = has_host::io::load_objects(&twin_path, None)
-        .with_context(|| format!("--twin {}", twin_path.display()))?;
     let scene = sc.scene.build()?;
+    let (twin_name, twin, twin_built_s) = if args.truth_twin {
+        let objects: Vec<_> = scene
+            .objects
+            .iter()
+            .filter(|o| !spec.ground_objects.contains(&o.name))
+            .cloned()
+            .collect();
+        (
+            "the true buildings (--truth-twin)".to_string(),
+            objects,
+            None,
+        )
+    } else {
+        let (twin_path, built) = match &args.twin {
+            Some(p) => (p.clone(), None),
+            None => {
+                let t = Instant::now();
+                let p = build_twin(args.scenario.clone(), &args.out.join("twin"), args.quick)?;
+                (p, Some(t.elapsed().as_secs_f64()))
+            }
+        };
+        let twin = has_host::io::load_objects(&twin_path, None)
+            .with_context(|| format!("--twin {}", twin_path.display()))?;
+        (twin_path.display().to_string(), twin, built)
+    };
 
     let bar = ProgressBar::new(spec.frames as u64);
     bar.set_style(
@@ -134,7 +153,7 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
     let report = json!({
         "scenario": scenario_name,
         "preset": if args.quick { "quick" } else { "default" },
-        "twin": twin_path.display().to_string(),
+        "twin": twin_name,
         "localize": {
             "eca": summary_json(eca),
             "env": summary_json(env),
