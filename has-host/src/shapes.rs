@@ -391,6 +391,30 @@ pub fn building(
     })
 }
 
+/// The meshing proxy building: 40 m × 24 m × 10 m, a sawtooth roof of 4 teeth 3 m high facing
+/// +x, yawed 0.3 rad, open at the bottom (a sensed building standing on the ground), concrete.
+/// One definition for the meshing test, the `mesh_fixture` example and `has-sim bench mesh`.
+///
+/// # Errors
+/// None in practice (fixed valid parameters); [`ShapeError`] from [`building`].
+pub fn mesh_proxy_building() -> Result<Object, ShapeError> {
+    building(
+        "factory",
+        Material::Concrete,
+        &Building {
+            base_center: Vec3::ZERO,
+            size: Vec3::new(40.0, 24.0, 10.0),
+            yaw_rad: 0.3,
+            roof: Roof::Sawtooth {
+                teeth: 4,
+                height: 3.0,
+                facing: Direction::PosX,
+            },
+            bottom: false,
+        },
+    )
+}
+
 /// A closed axis-aligned box from `min` to `max` (all six faces).
 pub fn axis_box(
     name: impl Into<String>,

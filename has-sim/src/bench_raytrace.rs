@@ -27,6 +27,12 @@ pub enum BenchCmd {
     },
     /// Ray-tracing throughput: BVH build, closest hit and visibility, 1 thread and all threads.
     Raytrace(RaytraceArgs),
+    /// Screened Poisson: adaptive fine levels against full grids on the same noisy building.
+    Mesh {
+        /// Depth 7 instead of 8.
+        #[arg(long)]
+        quick: bool,
+    },
 }
 
 /// Options of `bench raytrace`.
@@ -321,6 +327,7 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
     match cmd {
         BenchCmd::Raytrace(a) => raytrace(&a),
         BenchCmd::Dsp { quick } => crate::bench_dsp::run(quick),
+        BenchCmd::Mesh { quick } => crate::bench_mesh::run(quick),
     }
 }
 

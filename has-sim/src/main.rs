@@ -7,6 +7,7 @@
 use clap::{Parser, Subcommand};
 
 mod bench_dsp;
+mod bench_mesh;
 mod bench_paths;
 mod bench_raytrace;
 mod channel_cmd;
@@ -44,7 +45,7 @@ enum Command {
         #[command(subcommand)]
         cmd: scene_cmd::SceneCmd,
     },
-    /// Benchmarks (`bench dsp`, `bench raytrace`).
+    /// Benchmarks (`bench dsp`, `bench raytrace`, `bench mesh`).
     Bench {
         #[command(subcommand)]
         cmd: bench_raytrace::BenchCmd,

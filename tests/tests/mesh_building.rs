@@ -2,43 +2,18 @@
 //! the ground) sampled with imaging-like noise, meshed, and scored with the paper's metrics:
 //! the mesh must beat the cloud it came from.
 
-use glam::Vec3;
 use has_host::mesh::{reconstruct, Orientation, PoissonParams, ReconstructParams, Trim};
-use has_host::metrics::{sample_triangles, CloudComparison};
-use has_host::shapes::{building, Building, Direction, Roof};
-use has_host::Material;
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
+use has_host::metrics::{gaussian_jitter, sample_triangles, CloudComparison};
+use has_host::shapes::mesh_proxy_building;
 
 #[test]
 fn noisy_factory_mesh_beats_its_input_cloud() {
-    let b = building(
-        "factory",
-        Material::Concrete,
-        &Building {
-            base_center: Vec3::ZERO,
-            size: Vec3::new(40.0, 24.0, 10.0),
-            yaw_rad: 0.3,
-            roof: Roof::Sawtooth {
-                teeth: 4,
-                height: 3.0,
-                facing: Direction::PosX,
-            },
-            bottom: false,
-        },
-    )
-    .unwrap();
+    let b = mesh_proxy_building().unwrap();
     // Ground truth: 25 points/m² on the walls and the roof (the surfaces a sensor can see).
     // Cloud: 4 points/m² on walls and roof, isotropic Gaussian noise σ = 0.3 m per axis.
     let sigma = 0.3f32;
     let clean = sample_triangles(&b.triangles, 4.0, 11).unwrap();
-    let mut rng = ChaCha8Rng::seed_from_u64(12);
-    let g = Normal::new(0.0f32, sigma).unwrap();
-    let cloud: Vec<Vec3> = clean
-        .iter()
-        .map(|&p| p + Vec3::new(g.sample(&mut rng), g.sample(&mut rng), g.sample(&mut rng)))
-        .collect();
+    let cloud = gaussian_jitter(&clean, sigma, 12).unwrap();
     let truth = sample_triangles(&b.triangles, 25.0, 13).unwrap();
     let params = ReconstructParams {
         normal_k: 24,
