@@ -3,7 +3,7 @@
 
 use glam::Vec3;
 use has_host::mesh::{reconstruct, Orientation, PoissonParams, ReconstructParams};
-use has_host::metrics::{sample_triangles, CloudComparison};
+use has_host::metrics::{gaussian_jitter, sample_triangles, CloudComparison};
 use has_host::shapes::axis_box;
 use has_host::Material;
 use rand::{Rng, SeedableRng};
@@ -133,18 +133,7 @@ fn noisy_box_faces_are_recovered_and_mesh_is_watertight() {
     let b = axis_box("box", Material::Concrete, lo, hi).unwrap();
     let sigma = 0.01f32;
     let clean = sample_triangles(&b.triangles, 1500.0, 3).unwrap();
-    let mut rng = ChaCha8Rng::seed_from_u64(4);
-    let noise = Normal::new(0.0f32, sigma).unwrap();
-    let pts: Vec<Vec3> = clean
-        .iter()
-        .map(|&p| {
-            p + Vec3::new(
-                noise.sample(&mut rng),
-                noise.sample(&mut rng),
-                noise.sample(&mut rng),
-            )
-        })
-        .collect();
+    let pts = gaussian_jitter(&clean, sigma, 4).unwrap();
     let rec = reconstruct(&pts, Orientation::Propagate, &params(6)).unwrap();
     let h = rec.poisson.cell_m;
     let top = rec.mesh.topology();

@@ -888,18 +888,7 @@ mod tests {
         let b = crate::shapes::axis_box("box", Material::Concrete, lo, hi).unwrap();
         let sigma = 0.01f32;
         let clean = crate::metrics::sample_triangles(&b.triangles, 1500.0, 3).unwrap();
-        let mut rng = ChaCha8Rng::seed_from_u64(4);
-        let noise = Normal::new(0.0f32, sigma).unwrap();
-        let pts: Vec<Vec3> = clean
-            .iter()
-            .map(|&p| {
-                p + Vec3::new(
-                    noise.sample(&mut rng),
-                    noise.sample(&mut rng),
-                    noise.sample(&mut rng),
-                )
-            })
-            .collect();
+        let pts = crate::metrics::gaussian_jitter(&clean, sigma, 4).unwrap();
         let params = ReconstructParams {
             poisson: banded(6, 2, 5000),
             ..ReconstructParams::default()
