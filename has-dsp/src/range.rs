@@ -164,16 +164,52 @@ impl RangeCompressor {
     /// # Errors
     /// `LengthMismatch` (`weights`: length `n`).
     pub fn fill_weights(&self, weights: &mut [f32]) -> Result<(), DspError> {
-        let n = self.cfg.n_subcarriers;
-        check_len("weights", n, weights.len())?;
+        check_len("weights", self.cfg.n_subcarriers, weights.len())?;
         for (k, w) in weights.iter_mut().enumerate() {
-            *w = if k == n / 2 {
-                0.0
-            } else {
-                self.window.weight(k, n) as f32
-            };
+            *w = self.weight(k) as f32;
         }
         Ok(())
+    }
+
+    /// Window weight of subcarrier `k` (FFT order), 0 for the unused Nyquist subcarrier.
+    fn weight(&self, k: usize) -> f64 {
+        let n = self.cfg.n_subcarriers;
+        if k == n / 2 {
+            0.0
+        } else {
+            self.window.weight(k, n)
+        }
+    }
+
+    /// Power correlation `|ρ_m|²` of the noise in profile bins `m` apart, written to
+    /// `out[m − 1]` for `m = 1 ..= out.len()`: white noise of equal power on every subcarrier,
+    /// weighted as [`Self::fill_weights`] and zero-padded, gives
+    /// `ρ_m = Σ w_k²·e^{j2π·s_k·m/(n·zero_pad)} / Σ w_k²` (`s_k` the signed subcarrier offset). A
+    /// detector whose training cells run along range needs it (`has_dsp::cfar`).
+    pub fn noise_power_correlation(&self, out: &mut [f64]) {
+        let n = self.cfg.n_subcarriers;
+        let padded = (n * self.cfg.zero_pad) as f64;
+        let sum_w2: f64 = (0..n).map(|k| self.weight(k) * self.weight(k)).sum();
+        for (i, r) in out.iter_mut().enumerate() {
+            let m = (i + 1) as f64;
+            let (mut re, mut im) = (0.0f64, 0.0f64);
+            for k in 0..n {
+                let s = if k < n / 2 {
+                    k as f64
+                } else {
+                    k as f64 - n as f64
+                };
+                let ph = core::f64::consts::TAU * s * m / padded;
+                let w = self.weight(k);
+                re += w * w * libm::cos(ph);
+                im += w * w * libm::sin(ph);
+            }
+            *r = if sum_w2 > 0.0 {
+                ((re * re + im * im) / (sum_w2 * sum_w2)).min(1.0)
+            } else {
+                0.0
+            };
+        }
     }
 
     /// Per-subcarrier filter `w_k·G_k` (before `1/Σw`) and whether the subcarrier is used.
@@ -440,6 +476,33 @@ mod tests {
             y - t
         } else {
             y
+        }
+    }
+
+    #[test]
+    fn noise_power_correlation_matches_the_closed_forms() {
+        // Rectangular window, zero-padding 2, Nyquist subcarrier unused (n − 1 equal weights):
+        // half a bin apart |ρ|² = |Σ_s e^{jπs/n}|²/(n−1)² → (2/π)²·(n/(n−1))² ≈ 4/π²; a whole
+        // bin apart the sum of all n-th roots of unity but one leaves |ρ| = 1/(n − 1).
+        let n = 256;
+        let rc = RangeCompressor::new(cfg(n, 2, Window::Rectangular, RangeMode::Matched)).unwrap();
+        let mut r = [0.0f64; 2];
+        rc.noise_power_correlation(&mut r);
+        assert!(
+            (r[0] - 4.0 / core::f64::consts::PI.powi(2)).abs() < 1e-2,
+            "{r:?}"
+        );
+        assert!(
+            (r[1] - 1.0 / ((n - 1) * (n - 1)) as f64).abs() < 1e-9,
+            "{r:?}"
+        );
+        // Hann, zero-padding 2: [0.820, 0.444, 0.151, 0.028] (the same sum evaluated
+        // independently in double precision, natural subcarrier order, to 3 decimals).
+        let rc = RangeCompressor::new(cfg(n, 2, Window::Hann, RangeMode::Matched)).unwrap();
+        let mut r = [0.0f64; 4];
+        rc.noise_power_correlation(&mut r);
+        for (got, want) in r.iter().zip([0.820, 0.444, 0.151, 0.028]) {
+            assert!((got - want).abs() < 2e-3, "{r:?}");
         }
     }
 

@@ -306,26 +306,9 @@ impl Chain {
         let sr2: f64 = wr.iter().map(|&a| (a * a) as f64).sum();
         let noise_cell = spec.noise_power() * sr2 / (sr * sr) * sum_s2 / (sum_s * sum_s);
         // The CFAR runs along range over zero-padded, windowed profiles: neighbouring bins are
-        // correlated (noise ρ_m = Σ w_k²·e^{j2π·k·m/(n·zero_pad)} / Σ w_k², k the signed
-        // subcarrier offset), which the detector must know to hold its design false-alarm rate.
-        let n_sc = spec.subcarriers;
-        let power_corr: Vec<f64> = (1..spec.cfar_train)
-            .map(|m| {
-                let (mut re, mut im) = (0.0f64, 0.0f64);
-                for (k, &w) in wr.iter().enumerate() {
-                    let ks = if k < n_sc / 2 {
-                        k as f64
-                    } else {
-                        k as f64 - n_sc as f64
-                    };
-                    let ph = std::f64::consts::TAU * ks * m as f64 / (n_sc * spec.zero_pad) as f64;
-                    let w2 = (w * w) as f64;
-                    re += w2 * ph.cos();
-                    im += w2 * ph.sin();
-                }
-                ((re * re + im * im) / (sr2 * sr2)).min(1.0)
-            })
-            .collect();
+        // correlated, which the detector must know to hold its design false-alarm rate.
+        let mut power_corr = vec![0.0f64; spec.cfar_train.saturating_sub(1)];
+        rc.noise_power_correlation(&mut power_corr);
         let cfar = CaCfar::with_power_correlation(
             spec.cfar_train,
             spec.cfar_guard,
