@@ -41,7 +41,7 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::iso::Polygonizer;
-use super::poisson::{corner_weights, pcg, Grid};
+use super::poisson::{corner_weights, pcg, splat_normals, Grid};
 use super::TriMesh;
 
 /// Neighbour slot of a node outside the grid.
@@ -509,41 +509,21 @@ impl BandSystem {
         alpha: f32,
     ) -> BandSystem {
         let grid = band.grid;
-        let [nx, ny, nz] = grid.dims;
         let h = grid.h;
         let n = band.len();
         // Divergence: edge (q, q + e_axis) carrying V subtracts h·V from b_q and adds it to
         // b_{q+e} (b_i = h·(Σ_axis V(i − e_axis) − V(i)), as on the full grid).
-        let edge_dims = [[nx - 1, ny, nz], [nx, ny - 1, nz], [nx, ny, nz - 1]];
         let mut b = vec![0f32; n];
-        let inv_h3 = 1.0 / (h * h * h);
-        for ((&p, &nrm), &a) in points.iter().zip(normals).zip(area) {
-            for axis in 0..3 {
-                let d = edge_dims[axis];
-                let mut shift = Vec3::ZERO;
-                shift[axis] = 0.5 * h;
-                let eg = Grid {
-                    dims: d,
-                    origin: grid.origin + shift,
-                    h,
-                };
-                let (c, f) = eg.locate(p);
-                let m = nrm[axis] * a * inv_h3;
-                for (o, w) in corner_weights(f) {
-                    let q = [c[0] + o[0], c[1] + o[1], c[2] + o[2]];
-                    if q[0] < d[0] && q[1] < d[1] && q[2] < d[2] {
-                        let mut q1 = q;
-                        q1[axis] += 1;
-                        if let Some(i) = band.find(q) {
-                            b[i] -= h * m * w;
-                        }
-                        if let Some(i) = band.find(q1) {
-                            b[i] += h * m * w;
-                        }
-                    }
-                }
+        splat_normals(&grid, points, normals, area, |axis, q, m, w| {
+            let mut q1 = q;
+            q1[axis] += 1;
+            if let Some(i) = band.find(q) {
+                b[i] -= h * m * w;
             }
-        }
+            if let Some(i) = band.find(q1) {
+                b[i] += h * m * w;
+            }
+        });
         let bnorm = b.iter().map(|&v| v as f64 * v as f64).sum::<f64>().sqrt();
         // Ring couplings (the Laplacian's −1 entries to Dirichlet nodes) and the degrees.
         let mut diag = vec![0f32; n];

@@ -223,6 +223,12 @@ pub(super) struct Grid {
 }
 
 impl Grid {
+    /// Edge counts of the x-, y- and z-directed edges.
+    pub fn edge_dims(&self) -> [[usize; 3]; 3] {
+        let [nx, ny, nz] = self.dims;
+        [[nx - 1, ny, nz], [nx, ny - 1, nz], [nx, ny, nz - 1]]
+    }
+
     pub fn len(&self) -> usize {
         self.dims[0] * self.dims[1] * self.dims[2]
     }
@@ -265,6 +271,44 @@ pub(super) fn corner_weights(f: Vec3) -> [([usize; 3], f32); 8] {
     out
 }
 
+/// The staggered splat of the normal field `V = Σ nₚ·aₚ/h³·δₚ` of `grid`: calls
+/// `f(axis, q, m, w)` (the sample's `m = n_axis·aₚ/h³` and its trilinear weight `w`, the share
+/// being `m·w`) for every trilinear share of every sample on the `axis`-directed edge
+/// `q` (from node `q` to `q + e_axis`; edges lie on the grid of [`Grid::edge_dims`], shifted half
+/// a cell along `axis`), in sample, axis, corner order. The one definition used by the full-grid
+/// and the banded assembly.
+pub(super) fn splat_normals(
+    grid: &Grid,
+    points: &[Vec3],
+    normals: &[Vec3],
+    area: &[f32],
+    mut f: impl FnMut(usize, [usize; 3], f32, f32),
+) {
+    let h = grid.h;
+    let edge_dims = grid.edge_dims();
+    let inv_h3 = 1.0 / (h * h * h);
+    for ((&p, &n), &a) in points.iter().zip(normals).zip(area) {
+        for axis in 0..3 {
+            let d = edge_dims[axis];
+            let mut shift = Vec3::ZERO;
+            shift[axis] = 0.5 * h;
+            let eg = Grid {
+                dims: d,
+                origin: grid.origin + shift,
+                h,
+            };
+            let (c, w8) = eg.locate(p);
+            let m = n[axis] * a * inv_h3;
+            for (o, w) in corner_weights(w8) {
+                let q = [c[0] + o[0], c[1] + o[1], c[2] + o[2]];
+                if q[0] < d[0] && q[1] < d[1] && q[2] < d[2] {
+                    f(axis, q, m, w);
+                }
+            }
+        }
+    }
+}
+
 /// The assembled system of one level.
 struct System {
     grid: Grid,
@@ -289,29 +333,12 @@ impl System {
         let [nx, ny, nz] = grid.dims;
         let h = grid.h;
         // Staggered splat of V = Σ nₚ aₚ/h³ δₚ onto x-, y- and z-directed edges.
-        let edge_dims = [[nx - 1, ny, nz], [nx, ny - 1, nz], [nx, ny, nz - 1]];
+        let edge_dims = grid.edge_dims();
         let mut v: [Vec<f32>; 3] = edge_dims.map(|d| vec![0f32; d[0] * d[1] * d[2]]);
-        let inv_h3 = 1.0 / (h * h * h);
-        for ((&p, &n), &a) in points.iter().zip(normals).zip(area) {
-            for axis in 0..3 {
-                let d = edge_dims[axis];
-                let mut shift = Vec3::ZERO;
-                shift[axis] = 0.5 * h;
-                let eg = Grid {
-                    dims: d,
-                    origin: grid.origin + shift,
-                    h,
-                };
-                let (c, f) = eg.locate(p);
-                let m = n[axis] * a * inv_h3;
-                for (o, w) in corner_weights(f) {
-                    let (x, y, z) = (c[0] + o[0], c[1] + o[1], c[2] + o[2]);
-                    if x < d[0] && y < d[1] && z < d[2] {
-                        v[axis][x + d[0] * (y + d[1] * z)] += m * w;
-                    }
-                }
-            }
-        }
+        splat_normals(&grid, points, normals, area, |axis, q, m, w| {
+            let d = edge_dims[axis];
+            v[axis][q[0] + d[0] * (q[1] + d[1] * q[2])] += m * w;
+        });
         // b_i = h·(Σ_axis V(i − e_axis) − V(i)).
         let mut b = vec![0f32; grid.len()];
         b.par_chunks_mut(nx * ny).enumerate().for_each(|(z, slab)| {
