@@ -190,6 +190,51 @@ pub fn gaussian_jitter(
         .collect())
 }
 
+/// `n` points uniform on the sphere of centre `centre` and radius `radius_m`, each moved along
+/// its radius by N(0, σ²) (seeded ChaCha8: per point the cosine of the polar angle, the azimuth,
+/// then the radial noise), and the sphere's outward unit normals there: an oriented noisy cloud
+/// for the meshing tests.
+///
+/// # Errors
+/// [`GeometryError::BadParameter`] for a radius not finite and positive or a `sigma_m` negative
+/// or not finite.
+pub fn noisy_sphere(
+    n: usize,
+    centre: Vec3,
+    radius_m: f32,
+    sigma_m: f32,
+    seed: u64,
+) -> Result<(Vec<Vec3>, Vec<Vec3>), GeometryError> {
+    if !(radius_m.is_finite() && radius_m > 0.0) {
+        return Err(GeometryError::BadParameter {
+            field: "radius_m",
+            value: radius_m as f64,
+            expected: "finite and > 0",
+        });
+    }
+    let bad = || GeometryError::BadParameter {
+        field: "sigma_m",
+        value: sigma_m as f64,
+        expected: "finite and ≥ 0",
+    };
+    if !(sigma_m.is_finite() && sigma_m >= 0.0) {
+        return Err(bad());
+    }
+    let normal = rand_distr::Normal::new(0.0f32, sigma_m).map_err(|_| bad())?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    Ok((0..n)
+        .map(|_| {
+            use rand::Rng;
+            use rand_distr::Distribution;
+            let z: f32 = rng.random_range(-1.0..1.0);
+            let phi: f32 = rng.random_range(0.0..std::f32::consts::TAU);
+            let s = (1.0 - z * z).sqrt();
+            let d = Vec3::new(s * phi.cos(), s * phi.sin(), z);
+            (centre + d * (radius_m + normal.sample(&mut rng)), d)
+        })
+        .unzip())
+}
+
 /// Uniform, area-weighted random samples on triangles, `density_per_m2` points per m² on
 /// average, reproducible from `seed`.
 ///

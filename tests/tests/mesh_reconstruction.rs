@@ -3,27 +3,9 @@
 
 use glam::Vec3;
 use has_host::mesh::{reconstruct, Orientation, PoissonParams, ReconstructParams};
-use has_host::metrics::{gaussian_jitter, sample_triangles, CloudComparison};
+use has_host::metrics::{gaussian_jitter, noisy_sphere, sample_triangles, CloudComparison};
 use has_host::shapes::axis_box;
 use has_host::Material;
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, Normal};
-
-/// `n` points uniform on a sphere (centre `c`, radius `r`), displaced radially by N(0, σ²).
-fn noisy_sphere(n: usize, c: Vec3, r: f32, sigma: f32, seed: u64) -> Vec<Vec3> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let noise = Normal::new(0.0f32, sigma).unwrap();
-    (0..n)
-        .map(|_| {
-            let z: f32 = rng.random_range(-1.0..1.0);
-            let phi: f32 = rng.random_range(0.0..std::f32::consts::TAU);
-            let s = (1.0 - z * z).sqrt();
-            let d = Vec3::new(s * phi.cos(), s * phi.sin(), z);
-            c + d * (r + noise.sample(&mut rng))
-        })
-        .collect()
-}
 
 fn params(depth: u32) -> ReconstructParams {
     ReconstructParams {
@@ -43,7 +25,7 @@ fn noisy_sphere_reconstructs_within_a_cell_and_is_watertight() {
     let c = Vec3::new(3.0, -2.0, 1.0);
     let r = 1.0f32;
     let sigma = 0.01f32;
-    let pts = noisy_sphere(6000, c, r, sigma, 1);
+    let (pts, _) = noisy_sphere(6000, c, r, sigma, 1).unwrap();
     let sensors: Vec<Vec3> = pts.iter().map(|&p| c + (p - c) * 10.0).collect();
     let rec = reconstruct(&pts, Orientation::Sensors(&sensors), &params(6)).unwrap();
     let h = rec.poisson.cell_m;
@@ -84,7 +66,7 @@ fn degenerate_inputs_are_clear_errors() {
     use has_host::knn::GeometryError;
     let p = params(5);
     // Fewer points than neighbours.
-    let few = noisy_sphere(10, Vec3::ZERO, 1.0, 0.0, 2);
+    let (few, _) = noisy_sphere(10, Vec3::ZERO, 1.0, 0.0, 2).unwrap();
     assert!(matches!(
         reconstruct(&few, Orientation::Propagate, &p),
         Err(GeometryError::TooFew {
@@ -110,7 +92,7 @@ fn degenerate_inputs_are_clear_errors() {
     );
     assert!(e.to_string().contains("plane"), "{e}");
     // NaN.
-    let mut nan = noisy_sphere(100, Vec3::ZERO, 1.0, 0.0, 3);
+    let (mut nan, _) = noisy_sphere(100, Vec3::ZERO, 1.0, 0.0, 3).unwrap();
     nan[42] = Vec3::new(0.0, f32::NAN, 0.0);
     let e = reconstruct(&nan, Orientation::Propagate, &p).unwrap_err();
     assert!(

@@ -9,7 +9,7 @@ pub mod sensors;
 pub use config::{ImagingScenario, ScenarioError};
 pub use driver::{image_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions};
 pub use run::{
-    build_world, fuse, observable_truth, observing_pairs, observing_sensors, plan_pairs,
-    run_imaging, FusedCloud, RunError, RunResult, World,
+    build_world, every_pairing, fuse, observable_truth, observing_pairs, observing_sensors,
+    plan_pairs, run_imaging, FusedCloud, RunError, RunResult, World,
 };
 pub use sensors::{nyquist_spacing_m, pair_resolution_m, PlanarArray, VirtualAperture};

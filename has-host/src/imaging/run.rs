@@ -230,6 +230,23 @@ pub fn plan_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, 
     Ok(plans)
 }
 
+/// Every (base station, aperture) combination of the scenario, whether or not [`plan_pairs`]
+/// would image it (coverage left at 0): with [`observable_truth`], how much of the truth any
+/// pairing of these sensors could observe — the ceiling of the pairing choice.
+pub fn every_pairing(sc: &ImagingScenario) -> Vec<PairPlan> {
+    (0..sc.base_stations.len())
+        .flat_map(|bs| {
+            (0..sc.apertures.len()).map(move |ai| PairPlan {
+                name: format!("{}-{}", sc.base_stations[bs].name, sc.apertures[ai].name),
+                bs,
+                aperture: ai,
+                positions: default_positions(sc, ai),
+                coverage_m2: 0.0,
+            })
+        })
+        .collect()
+}
+
 /// The fused cloud.
 #[derive(Clone, Debug, Default)]
 pub struct FusedCloud {

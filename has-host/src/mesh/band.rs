@@ -607,32 +607,11 @@ mod tests {
     use super::super::{reconstruct, Orientation, ReconstructParams, TriMesh};
     use super::*;
     use crate::knn::GeometryError;
+    use crate::metrics::noisy_sphere;
     use crate::Material;
-    use rand::{Rng, SeedableRng};
-    use rand_chacha::ChaCha8Rng;
-    use rand_distr::{Distribution, Normal};
 
     /// `n` points uniform on a sphere (centre `c`, radius `r`), displaced radially by N(0, σ²),
     /// with their exact outward normals.
-    fn noisy_sphere(n: usize, c: Vec3, r: f32, sigma: f32, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let noise = Normal::new(0.0f32, sigma.max(1e-12)).unwrap();
-        (0..n)
-            .map(|_| {
-                let z: f32 = rng.random_range(-1.0..1.0);
-                let phi: f32 = rng.random_range(0.0..std::f32::consts::TAU);
-                let s = (1.0 - z * z).sqrt();
-                let d = Vec3::new(s * phi.cos(), s * phi.sin(), z);
-                let e = if sigma > 0.0 {
-                    noise.sample(&mut rng)
-                } else {
-                    0.0
-                };
-                (c + d * (r + e), d)
-            })
-            .unzip()
-    }
-
     fn banded(depth: u32, w: u32, dense_max_nodes: usize) -> PoissonParams {
         PoissonParams {
             depth,
@@ -739,7 +718,7 @@ mod tests {
         let c = Vec3::new(3.0, -2.0, 1.0);
         let r = 1.0f32;
         let sigma = 0.01f32;
-        let (pts, nrm) = noisy_sphere(6000, c, r, sigma, 1);
+        let (pts, nrm) = noisy_sphere(6000, c, r, sigma, 1).unwrap();
         let full_p = PoissonParams {
             depth: 6,
             levels: 3,
@@ -807,7 +786,7 @@ mod tests {
         let c = Vec3::ZERO;
         let r = 1.0f32;
         let sigma = 0.01f32;
-        let (pts, nrm) = noisy_sphere(6000, c, r, sigma, 5);
+        let (pts, nrm) = noisy_sphere(6000, c, r, sigma, 5).unwrap();
         let out = screened_poisson(&pts, &nrm, &banded(7, 2, 1 << 20)).unwrap();
         let fine = out.levels.last().unwrap();
         let h = fine.cell_m;
@@ -831,7 +810,7 @@ mod tests {
         // MAX_NODES, the banded one needs at most (2w + 2)³ unknowns per sample on each banded
         // level (its active cells are the (2w + 1)³ boxes around the sample cells, their corners
         // the (2w + 2)³ boxes), independent of the box: memory O(samples·w³), not O(volume).
-        let (pts, nrm) = noisy_sphere(1500, Vec3::ZERO, 1.0, 0.0, 7);
+        let (pts, nrm) = noisy_sphere(1500, Vec3::ZERO, 1.0, 0.0, 7).unwrap();
         let full = PoissonParams {
             depth: 9,
             band: None,
@@ -898,7 +877,7 @@ mod tests {
 
     #[test]
     fn bad_band_parameters_are_named() {
-        let (pts, nrm) = noisy_sphere(100, Vec3::ZERO, 1.0, 0.0, 3);
+        let (pts, nrm) = noisy_sphere(100, Vec3::ZERO, 1.0, 0.0, 3).unwrap();
         for (w, max) in [(0, 1000), (65, 1000), (2, 0), (2, MAX_NODES + 1)] {
             let e = screened_poisson(&pts, &nrm, &banded(5, w, max)).unwrap_err();
             let want = if max == 1000 {
