@@ -156,6 +156,19 @@ pub fn fscore(s1: &[Vec3], s2: &[Vec3], d_m: f32) -> Result<FScore, GeometryErro
 /// Most samples one call may produce (guards against a density typo exhausting memory).
 pub const MAX_SAMPLES: f64 = 2.0e8;
 
+/// N(0, σ²) for the noise generators, `sigma_m` checked.
+fn zero_mean_normal(sigma_m: f32) -> Result<rand_distr::Normal<f32>, GeometryError> {
+    let bad = || GeometryError::BadParameter {
+        field: "sigma_m",
+        value: sigma_m as f64,
+        expected: "finite and ≥ 0",
+    };
+    if !(sigma_m.is_finite() && sigma_m >= 0.0) {
+        return Err(bad());
+    }
+    rand_distr::Normal::new(0.0f32, sigma_m).map_err(|_| bad())
+}
+
 /// `points` moved by isotropic Gaussian noise of standard deviation `sigma_m` per axis (seeded
 /// ChaCha8, the x, y, z draws of each point in turn): a stand-in for an imaging cloud in tests,
 /// examples and benchmarks.
@@ -167,15 +180,7 @@ pub fn gaussian_jitter(
     sigma_m: f32,
     seed: u64,
 ) -> Result<Vec<Vec3>, GeometryError> {
-    let bad = || GeometryError::BadParameter {
-        field: "sigma_m",
-        value: sigma_m as f64,
-        expected: "finite and ≥ 0",
-    };
-    if !(sigma_m.is_finite() && sigma_m >= 0.0) {
-        return Err(bad());
-    }
-    let normal = rand_distr::Normal::new(0.0f32, sigma_m).map_err(|_| bad())?;
+    let normal = zero_mean_normal(sigma_m)?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     Ok(points
         .iter()
@@ -212,15 +217,7 @@ pub fn noisy_sphere(
             expected: "finite and > 0",
         });
     }
-    let bad = || GeometryError::BadParameter {
-        field: "sigma_m",
-        value: sigma_m as f64,
-        expected: "finite and ≥ 0",
-    };
-    if !(sigma_m.is_finite() && sigma_m >= 0.0) {
-        return Err(bad());
-    }
-    let normal = rand_distr::Normal::new(0.0f32, sigma_m).map_err(|_| bad())?;
+    let normal = zero_mean_normal(sigma_m)?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     Ok((0..n)
         .map(|_| {
