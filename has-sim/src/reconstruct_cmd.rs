@@ -556,11 +556,10 @@ fn report_md(r: &serde_json::Value, cmp: &CloudComparison) -> Result<String> {
     }
     let obs = |v: &serde_json::Value, part: &str| {
         let p = &v["observable_truth"][part];
-        format!(
-            "{:.3} m / {:.1} %",
-            p["rms_from_truth_m"].as_f64().unwrap_or(f64::NAN),
-            p["recall_1_5m"].as_f64().unwrap_or(f64::NAN)
-        )
+        match (p["rms_from_truth_m"].as_f64(), p["recall_1_5m"].as_f64()) {
+            (Some(rms), Some(recall)) => format!("{rms:.3} m / {recall:.1} %"),
+            _ => "— (no such truth points)".to_string(),
+        }
     };
     writeln!(
         s,
