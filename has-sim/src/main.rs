@@ -13,6 +13,7 @@ mod bench_raytrace;
 mod channel_cmd;
 mod localize_cmd;
 mod mesh_cmd;
+mod observability_cmd;
 mod paths_cmd;
 mod plot;
 mod reconstruct_cmd;
@@ -58,6 +59,9 @@ enum Command {
     /// Moving-target sensing by a monostatic base station: ECA vs the environment prior from the
     /// reconstructed twin (paper §3); report, detections PLY, Fig. 11-style plots.
     Localize(localize_cmd::LocalizeArgs),
+    /// How much of the true surface each base station–aperture pairing could observe (line of
+    /// sight of both legs), the pairs `reconstruct` would image, and all pairings together.
+    Observability(observability_cmd::ObservabilityArgs),
 }
 
 fn main() {
@@ -78,6 +82,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Paths(args) => paths_cmd::run(args),
         Command::Channel(a) => channel_cmd::run(a),
         Command::Localize(a) => localize_cmd::run(a),
+        Command::Observability(a) => observability_cmd::run(a),
     }
 }
 
