@@ -41,8 +41,9 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::iso::Polygonizer;
-use super::poisson::{corner_weights, pcg, splat_normals, Grid};
+use super::poisson::{corner_weights, pcg, splat_normals, Grid, MAX_NODES};
 use super::TriMesh;
+use crate::knn::GeometryError;
 
 /// Neighbour slot of a node outside the grid.
 const NONE: u32 = u32::MAX;
@@ -129,10 +130,27 @@ pub(super) struct Band {
 
 impl Band {
     /// The band of width `w` cells around `sample_cells` (cell coordinates on this level).
-    pub fn new(grid: Grid, sample_cells: &[[usize; 3]], w: u32) -> Band {
+    ///
+    /// # Errors
+    /// [`GeometryError::BadParameter`] (`band`) when the band holds more than `max_cells`
+    /// active cells (about its unknowns): checked before its node tables are built, so a depth
+    /// too fine for the sampled area fails with an error instead of exhausting memory.
+    pub fn new(
+        grid: Grid,
+        sample_cells: &[[usize; 3]],
+        w: u32,
+        max_cells: usize,
+    ) -> Result<Band, GeometryError> {
         let cdims = grid.dims.map(|d| d - 1);
         let seed = sort_dedup(sample_cells.iter().map(|&c| encode(c, cdims)).collect());
         let cells = dilate(seed, cdims, -(w as i64), w as i64);
+        if cells.len() > max_cells {
+            return Err(GeometryError::BadParameter {
+                field: "band (active cells of a banded level)",
+                value: cells.len() as f64,
+                expected: "at most 40 M: lower the depth or the band width",
+            });
+        }
         // Corners of the active cells: the cells' lower corners dilated by {0, 1}³.
         let lower = cells
             .par_iter()
@@ -185,12 +203,12 @@ impl Band {
                 })
             })
             .collect();
-        Band {
+        Ok(Band {
             grid,
             nodes,
             ring,
             nbr,
-        }
+        })
     }
 
     /// Number of unknowns.
@@ -248,6 +266,9 @@ impl Hierarchy {
     /// band width `w`, starting CG from the prolonged coarser field. `fine_cell` is each
     /// sample's cell on the finest level, `shift` the number of halvings from it to this level.
     /// Returns (unknowns, CG iterations, relative residual).
+    ///
+    /// # Errors
+    /// A band larger than [`MAX_NODES`] cells ([`Band::new`]).
     #[allow(clippy::too_many_arguments)]
     pub fn solve_next(
         &mut self,
@@ -261,10 +282,10 @@ impl Hierarchy {
         alpha: f32,
         tol: f32,
         max_iter: usize,
-    ) -> (usize, usize, f64) {
+    ) -> Result<(usize, usize, f64), GeometryError> {
         let t = self.bands.len() + 1;
         let cells: Vec<[usize; 3]> = fine_cell.iter().map(|c| c.map(|v| v >> shift)).collect();
-        let band = Band::new(grid, &cells, w);
+        let band = Band::new(grid, &cells, w, MAX_NODES)?;
         let n = band.len();
         let x_ring: Vec<f32> = band
             .ring
@@ -295,7 +316,7 @@ impl Hierarchy {
             ..band
         };
         self.bands.push((band, x));
-        (n, its, rel)
+        Ok((n, its, rel))
     }
 
     /// Mean of χ on the finest level at the samples (the iso-value).
@@ -603,7 +624,7 @@ impl BandSystem {
 
 #[cfg(test)]
 mod tests {
-    use super::super::poisson::{screened_poisson, PoissonParams, MAX_NODES};
+    use super::super::poisson::{screened_poisson, PoissonParams};
     use super::super::{reconstruct, Orientation, ReconstructParams, TriMesh};
     use super::*;
     use crate::knn::GeometryError;
@@ -658,9 +679,9 @@ mod tests {
                 origin: Vec3::ZERO,
                 h,
             };
-            let coarse = Band::new(g(dims, 2.0), &coarse_cells, w);
+            let coarse = Band::new(g(dims, 2.0), &coarse_cells, w, MAX_NODES).unwrap();
             let fdims = dims.map(|d| 2 * d - 1);
-            let fine = Band::new(g(fdims, 1.0), &fine_cells, w);
+            let fine = Band::new(g(fdims, 1.0), &fine_cells, w, MAX_NODES).unwrap();
             assert!(!fine.ring.is_empty());
             for &k in fine.nodes.iter().chain(&fine.ring) {
                 prolong_at(decode(k, fdims), |p| {
@@ -873,6 +894,26 @@ mod tests {
             n > 1000 && worst <= bound,
             "{n} vertices, worst {worst}, bound {bound}"
         );
+    }
+
+    #[test]
+    fn a_band_larger_than_its_cell_limit_is_an_error_not_an_allocation() {
+        // One sample cell in a 40³-cell grid: w = 2 makes a 5³ = 125-cell band.
+        let grid = Grid {
+            dims: [41, 41, 41],
+            origin: Vec3::ZERO,
+            h: 1.0,
+        };
+        let cells = [[20usize, 20, 20]];
+        let ok = Band::new(grid, &cells, 2, 125).unwrap();
+        assert_eq!(ok.len(), 6 * 6 * 6);
+        match Band::new(grid, &cells, 2, 124) {
+            Err(GeometryError::BadParameter { field, value, .. }) => {
+                assert!(field.starts_with("band"), "{field}");
+                assert_eq!(value, 125.0);
+            }
+            other => panic!("expected an error, got {:?}", other.map(|b| b.len())),
+        }
     }
 
     #[test]

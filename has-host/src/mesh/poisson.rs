@@ -30,7 +30,8 @@
 //! within `w` cells of a cell holding a sample (an octree-like refinement: a cell is refined only
 //! near the samples), with the coarser level's prolonged solution as Dirichlet values just
 //! outside the band; memory and time then grow with the sampled area (O(samples·w³) at worst),
-//! the full grids only up to the node budget. Outside the band χ is the prolonged coarser
+//! the full grids only up to the node budget, and a band of more than [`MAX_NODES`] active
+//! cells is refused with an error before its tables are built. Outside the band χ is the prolonged coarser
 //! solution, so where the surface leaves the samples (the extrapolated closure of open parts)
 //! it is the coarse surface, still watertight (no holes where it crosses the band's edge), only
 //! at the coarse level's accuracy. This is still a nested-grid band, not K&H's octree of
@@ -772,7 +773,7 @@ pub fn screened_poisson(
                 params.screening,
                 params.cg_tolerance,
                 params.max_cg_iterations,
-            )
+            )?
         } else {
             let sys = System::assemble(grid, points, &normals, &area, params.screening);
             let mut x = match &prev {
