@@ -31,18 +31,26 @@ pub fn run(args: ObservabilityArgs) -> Result<()> {
     let world = imaging::build_world(&sc)?;
     let planned = imaging::plan_pairs(&sc, &world)?;
     let every = imaging::every_pairing(&sc);
-    let pct = |plans: &[PairPlan]| {
-        let seen = imaging::observable_truth(&sc, &world, plans);
-        100.0 * seen.iter().filter(|&&s| s).count() as f64 / seen.len().max(1) as f64
-    };
-    let single: Vec<f64> = every.iter().map(|p| pct(std::slice::from_ref(p))).collect();
-    let imaged_pct = pct(&planned);
-    let every_pct = pct(&every);
     let is_planned = |p: &PairPlan| {
         planned
             .iter()
             .any(|q| q.bs == p.bs && q.aperture == p.aperture)
     };
+    // One line-of-sight pass per pairing; the unions are ORs of those.
+    let seen: Vec<Vec<bool>> = every
+        .iter()
+        .map(|p| imaging::observable_truth(&sc, &world, std::slice::from_ref(p)))
+        .collect();
+    let union = |keep: &dyn Fn(&PairPlan) -> bool| -> f64 {
+        let mut any = vec![false; world.truth.len()];
+        for (_, s) in every.iter().zip(&seen).filter(|(p, _)| keep(p)) {
+            any.iter_mut().zip(s).for_each(|(a, &b)| *a |= b);
+        }
+        imaging::share_pct(&any)
+    };
+    let single: Vec<f64> = seen.iter().map(|s| imaging::share_pct(s)).collect();
+    let imaged_pct = union(&is_planned);
+    let every_pct = union(&|_| true);
     if args.json {
         let pairs: Vec<_> = every
             .iter()

@@ -320,12 +320,13 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     let cmp = CloudComparison::new(&fused.points, &world.truth)?;
     let mut fused_metrics = metrics_json(&cmp, fused.points.len(), world.truth.len())?;
     let observable = imaging::observable_truth(&sc, &world, &result.plans);
-    let observable_pct =
-        100.0 * observable.iter().filter(|&&o| o).count() as f64 / observable.len().max(1) as f64;
+    let observable_pct = imaging::share_pct(&observable);
     fused_metrics["observable_truth"] = observable_json(&cmp, &observable);
-    let any_pairing = imaging::observable_truth(&sc, &world, &imaging::every_pairing(&sc));
-    let any_pairing_pct =
-        100.0 * any_pairing.iter().filter(|&&o| o).count() as f64 / any_pairing.len().max(1) as f64;
+    let any_pairing_pct = imaging::share_pct(&imaging::observable_truth(
+        &sc,
+        &world,
+        &imaging::every_pairing(&sc),
+    ));
     let mut pairs_json = Vec::new();
     let mut total_bp = 0.0;
     let mut total_bp_s = 0.0;

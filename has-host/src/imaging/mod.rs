@@ -10,6 +10,6 @@ pub use config::{ImagingScenario, ScenarioError};
 pub use driver::{image_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions};
 pub use run::{
     build_world, every_pairing, fuse, observable_truth, observing_pairs, observing_sensors,
-    plan_pairs, run_imaging, FusedCloud, RunError, RunResult, World,
+    plan_pairs, run_imaging, share_pct, FusedCloud, RunError, RunResult, World,
 };
 pub use sensors::{nyquist_spacing_m, pair_resolution_m, PlanarArray, VirtualAperture};

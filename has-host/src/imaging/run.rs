@@ -189,13 +189,7 @@ pub fn plan_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, 
             .sum())
     };
     let mut plans = Vec::new();
-    let mk = |bs: usize, ai: usize, cov: f64| PairPlan {
-        name: format!("{}-{}", sc.base_stations[bs].name, sc.apertures[ai].name),
-        bs,
-        aperture: ai,
-        positions: default_positions(sc, ai),
-        coverage_m2: cov,
-    };
+    let mk = |bs: usize, ai: usize, cov: f64| pair_plan(sc, bs, ai, cov);
     if sc.pairs.is_empty() {
         for ai in 0..sc.apertures.len() {
             let mut best = (0usize, 0.0f64);
@@ -235,16 +229,19 @@ pub fn plan_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, 
 /// pairing of these sensors could observe — the ceiling of the pairing choice.
 pub fn every_pairing(sc: &ImagingScenario) -> Vec<PairPlan> {
     (0..sc.base_stations.len())
-        .flat_map(|bs| {
-            (0..sc.apertures.len()).map(move |ai| PairPlan {
-                name: format!("{}-{}", sc.base_stations[bs].name, sc.apertures[ai].name),
-                bs,
-                aperture: ai,
-                positions: default_positions(sc, ai),
-                coverage_m2: 0.0,
-            })
-        })
+        .flat_map(|bs| (0..sc.apertures.len()).map(move |ai| pair_plan(sc, bs, ai, 0.0)))
         .collect()
+}
+
+/// The plan of base station `bs` with aperture `ai` (named `"BS-aperture"`, default sampling).
+fn pair_plan(sc: &ImagingScenario, bs: usize, ai: usize, coverage_m2: f64) -> PairPlan {
+    PairPlan {
+        name: format!("{}-{}", sc.base_stations[bs].name, sc.apertures[ai].name),
+        bs,
+        aperture: ai,
+        positions: default_positions(sc, ai),
+        coverage_m2,
+    }
 }
 
 /// The fused cloud.
@@ -392,6 +389,11 @@ pub fn observable_truth(sc: &ImagingScenario, world: &World, plans: &[PairPlan])
             })
         })
         .collect()
+}
+
+/// Percentage of `true` flags (of truth points, e.g. from [`observable_truth`]); 0 for none.
+pub fn share_pct(flags: &[bool]) -> f64 {
+    100.0 * flags.iter().filter(|&&f| f).count() as f64 / flags.len().max(1) as f64
 }
 
 /// A run's results.

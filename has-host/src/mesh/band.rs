@@ -148,7 +148,7 @@ impl Band {
             return Err(GeometryError::BadParameter {
                 field: "band (active cells of a banded level)",
                 value: cells.len() as f64,
-                expected: "at most 40 M: lower the depth or the band width",
+                expected: "at most MAX_NODES (40 M): lower the depth or the band width",
             });
         }
         // Corners of the active cells: the cells' lower corners dilated by {0, 1}³.
@@ -631,8 +631,6 @@ mod tests {
     use crate::metrics::noisy_sphere;
     use crate::Material;
 
-    /// `n` points uniform on a sphere (centre `c`, radius `r`), displaced radially by N(0, σ²),
-    /// with their exact outward normals.
     fn banded(depth: u32, w: u32, dense_max_nodes: usize) -> PoissonParams {
         PoissonParams {
             depth,

@@ -31,11 +31,11 @@
 //! near the samples), with the coarser level's prolonged solution as Dirichlet values just
 //! outside the band; memory and time then grow with the sampled area (O(samples·w³) at worst),
 //! the full grids only up to the node budget, and a band of more than [`MAX_NODES`] active
-//! cells is refused with an error before its tables are built. Outside the band χ is the prolonged coarser
-//! solution, so where the surface leaves the samples (the extrapolated closure of open parts)
-//! it is the coarse surface, still watertight (no holes where it crosses the band's edge), only
-//! at the coarse level's accuracy. This is still a nested-grid band, not K&H's octree of
-//! B-spline functions.
+//! cells is refused with an error before its tables are built. Outside the band χ is the
+//! prolonged coarser solution, so where the surface leaves the samples (the extrapolated closure
+//! of open parts) it is the coarse surface, still watertight (no holes where it crosses the
+//! band's edge), only at the coarse level's accuracy. This is still a nested-grid band, not
+//! K&H's octree of B-spline functions.
 //!
 //! Trimming ([`trim_by_density`]) follows Open3D's habit: each vertex carries a support density,
 //! here the k-nearest-neighbour estimate k/(π·r_k²) in samples per m² (r_k the distance from the
