@@ -212,6 +212,19 @@ fn mesh_stage(
     let cmp = CloudComparison::new(&samples, &world.truth)?;
     let mut m = metrics_json(&cmp, samples.len(), world.truth.len())?;
     m["observable_truth"] = observable_json(&cmp, observable);
+    // False surface (area-weighted share farther than 1.5 m from the truth) and area against
+    // the truth's: what Chamfer and F-score average away (a sheet over the ground, ghost walls).
+    let area = has_host::metrics::surface_area_metrics(
+        &samples,
+        rec.mesh.area_m2(),
+        &world.truth,
+        &world.truth_triangles,
+        1.5,
+    )?;
+    m["false_surface_pct_1_5m"] = json!(area.false_surface_pct);
+    m["area_ratio"] = json!(area.area_ratio);
+    m["area_m2"] = json!(area.area_m2);
+    m["truth_area_m2"] = json!(area.truth_area_m2);
     let topo = rec.mesh.topology();
     m["vertices"] = json!(rec.mesh.vertices.len());
     m["faces"] = json!(rec.mesh.faces.len());
@@ -528,6 +541,14 @@ fn report_md(r: &serde_json::Value, cmp: &CloudComparison) -> Result<String> {
             g("rms_from_truth_m"),
             pc["rms_to_truth_m"].as_f64().unwrap_or(f64::NAN),
             pc["rms_from_truth_m"].as_f64().unwrap_or(f64::NAN)
+        )?;
+        writeln!(
+            s,
+            "| false surface (area > 1.5 m from the truth) / area against the truth's | {:.1} % / {:.2} ({:.0} of {:.0} m²) | — |",
+            g("false_surface_pct_1_5m"),
+            g("area_ratio"),
+            g("area_m2"),
+            g("truth_area_m2")
         )?;
         writeln!(
             s,
