@@ -19,6 +19,7 @@ mod plot;
 mod reconstruct_cmd;
 mod resources;
 mod scene_cmd;
+mod suite_cmd;
 
 /// Hybrid aperture sensing simulator.
 #[derive(Parser)]
@@ -62,6 +63,9 @@ enum Command {
     /// How much of the true surface each base station–aperture pairing could observe (line of
     /// sight of both legs), the pairs `reconstruct` would image, and all pairings together.
     Observability(observability_cmd::ObservabilityArgs),
+    /// Reconstruct every site of the scenario suite (fixtures/suite/*.toml) and write one table
+    /// (suite.json, suite.md) of cloud and mesh quality, observability, time and memory.
+    Suite(suite_cmd::SuiteArgs),
 }
 
 fn main() {
@@ -83,6 +87,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Channel(a) => channel_cmd::run(a),
         Command::Localize(a) => localize_cmd::run(a),
         Command::Observability(a) => observability_cmd::run(a),
+        Command::Suite(a) => suite_cmd::run(a),
     }
 }
 
