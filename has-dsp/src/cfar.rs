@@ -116,7 +116,7 @@ impl CaCfar {
             // A window of train + i cells is one full side and one side of i cells (module docs:
             // a line of at least `min_len` cells never truncates both sides).
             let n_eff = full_side + neff(i);
-            *e = n_eff / (train + i) as f64 * Self::factor_for(pfa, n_eff);
+            *e = mean_level_factor(pfa, n_eff) / (train + i) as f64;
         }
         Ok(Self {
             train,
@@ -126,11 +126,6 @@ impl CaCfar {
             edge,
             effective: 2.0 * full_side,
         })
-    }
-
-    /// `pfa^{−1/n} − 1`.
-    fn factor_for(pfa: f64, n: f64) -> f64 {
-        libm::pow(pfa, -1.0 / n) - 1.0
     }
 
     /// Independent-cell equivalent `N_eff` of the full training window (`2·train` when the cells
@@ -234,6 +229,15 @@ impl CaCfar {
         }
         Ok(hits)
     }
+}
+
+/// The cell-averaging CFAR factor `α = n·(pfa^{−1/n} − 1)` over a *mean* reference power of `n`
+/// independent cells: for exponentially distributed cell power (complex Gaussian clutter or
+/// noise) of mean `μ`, a reference mean that is Gamma(n, μ/n), and a cell under test of the same
+/// mean, `P(cell ≥ α·reference) = (1 + α/n)^{−n} = pfa`. `n` need not be an integer (an
+/// effective count of correlated cells); `n → ∞` gives `−ln pfa`.
+pub fn mean_level_factor(pfa: f64, n: f64) -> f64 {
+    n * (libm::pow(pfa, -1.0 / n) - 1.0)
 }
 
 #[cfg(test)]

@@ -146,14 +146,36 @@ pub struct ImagingSpec {
     pub region_min: [f32; 3],
     /// Imaging region, upper corner `[x, y, z]`, metres.
     pub region_max: [f32; 3],
+    /// Optional site outline: `[x, y]` vertices of a simple polygon (either winding), metres. The
+    /// region is then this polygon × `[region_min.z, region_max.z]`; `region_min`/`region_max`
+    /// must contain it (its bounding box). Lets a rotated or irregular site be imaged without a
+    /// box that depends on the site's orientation.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub region_polygon: Option<Vec<[f32; 2]>>,
     /// Fine voxel size, metres.
     pub voxel_m: f32,
     /// Coarse voxel size of the first (masking) pass, metres.
     pub coarse_voxel_m: f32,
-    /// Coarse-pass mask threshold, dB relative to the coarse image's peak (negative).
+    /// Coarse-pass mask threshold, dB relative to the coarse image's peak (negative); used only
+    /// with `detection = "peak"`.
+    #[serde(default = "default_coarse_threshold_db")]
     pub coarse_threshold_db: f32,
-    /// Point threshold, dB relative to the pair's fine image peak (negative).
+    /// Point threshold, dB relative to the pair's fine image peak (negative); used only with
+    /// `detection = "peak"`.
+    #[serde(default = "default_threshold_db")]
     pub threshold_db: f32,
+    /// How a voxel is detected: `"clutter"` (default) against the clutter-plus-noise power the
+    /// pair would image on the bare known terrain, at `false_alarm_probability`
+    /// (`imaging::detection`); `"peak"`, the former test against the pair's peak
+    /// (`threshold_db`, `coarse_threshold_db`), which depends on what else is in the region.
+    #[serde(default)]
+    pub detection: Detection,
+    /// Design probability that a voxel of bare-site clutter or noise is detected (fine pass).
+    #[serde(default = "default_pfa")]
+    pub false_alarm_probability: f64,
+    /// The same for the coarse pass's mask (permissive: it only decides where to look).
+    #[serde(default = "default_mask_pfa")]
+    pub mask_false_alarm_probability: f64,
     /// Keep only voxels that are local maxima along the bistatic range direction.
     #[serde(default = "default_true")]
     pub local_max: bool,
@@ -193,6 +215,17 @@ pub struct ImagingSpec {
     /// Seed of the scatterer sampling and the noise.
     #[serde(default = "default_one_u64")]
     pub seed: u64,
+}
+
+/// How the imaging driver detects surface voxels (see [`ImagingSpec::detection`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Detection {
+    /// Against the predicted bare-terrain clutter plus noise (CFAR).
+    #[default]
+    Clutter,
+    /// Against the pair's image peak (relative thresholds).
+    Peak,
 }
 
 /// `[quick]`: fields of `[imaging]` replaced by the `--quick` preset (all optional).
@@ -249,6 +282,18 @@ fn default_one_u64() -> u64 {
 }
 fn default_coarse_step() -> usize {
     2
+}
+fn default_coarse_threshold_db() -> f32 {
+    -20.0
+}
+fn default_threshold_db() -> f32 {
+    -15.0
+}
+fn default_pfa() -> f64 {
+    1e-4
+}
+fn default_mask_pfa() -> f64 {
+    1e-2
 }
 fn default_ground_density() -> f64 {
     2.0
@@ -504,6 +549,49 @@ impl ImagingScenario {
                 ));
             }
         }
+        if let Some(poly) = &im.region_polygon {
+            if poly.len() < 3 {
+                return Err(invalid(
+                    "imaging.region_polygon",
+                    poly.len(),
+                    "at least 3 vertices",
+                ));
+            }
+            for (i, v) in poly.iter().enumerate() {
+                let inside = v.iter().all(|c| c.is_finite())
+                    && (0..2).all(|k| {
+                        v[k] >= im.region_min[k] - 1e-3 && v[k] <= im.region_max[k] + 1e-3
+                    });
+                if !inside {
+                    return Err(invalid(
+                        format!("imaging.region_polygon[{i}]"),
+                        v,
+                        "finite and inside region_min … region_max",
+                    ));
+                }
+            }
+            if polygon_area(poly).abs() < 1e-6 {
+                return Err(invalid(
+                    "imaging.region_polygon",
+                    "zero area",
+                    "a polygon with area",
+                ));
+            }
+        }
+        for (f, v) in [
+            (
+                "imaging.false_alarm_probability",
+                im.false_alarm_probability,
+            ),
+            (
+                "imaging.mask_false_alarm_probability",
+                im.mask_false_alarm_probability,
+            ),
+        ] {
+            if !(v > 0.0 && v < 1.0) {
+                return Err(invalid(f, v, "a probability in (0, 1)"));
+            }
+        }
         check_positive("imaging.voxel_m", im.voxel_m as f64)?;
         check_positive("imaging.coarse_voxel_m", im.coarse_voxel_m as f64)?;
         for (f, v) in [
@@ -609,11 +697,83 @@ impl ImagingScenario {
         }
     }
 
-    /// The imaging region `(min, max)`.
+    /// The imaging region's bounding box `(min, max)`.
     pub fn region(&self) -> (Vec3, Vec3) {
         (
             Vec3::from(self.imaging.region_min),
             Vec3::from(self.imaging.region_max),
         )
     }
+
+    /// Whether `p` lies in the imaging region: inside the box and, when the scenario gives a
+    /// `region_polygon`, inside that polygon (even–odd rule) in xy.
+    pub fn in_region(&self, p: Vec3) -> bool {
+        let (lo, hi) = self.region();
+        if !(p.cmpge(lo).all() && p.cmple(hi).all()) {
+            return false;
+        }
+        match &self.imaging.region_polygon {
+            None => true,
+            Some(poly) => point_in_polygon(poly, p.x, p.y),
+        }
+    }
+
+    /// Whether the axis-aligned box `[lo, hi]` touches the imaging region (conservative: true
+    /// when any part of the box may be inside).
+    pub fn box_touches_region(&self, lo: Vec3, hi: Vec3) -> bool {
+        let (rlo, rhi) = self.region();
+        if hi.cmplt(rlo).any() || lo.cmpgt(rhi).any() {
+            return false;
+        }
+        match &self.imaging.region_polygon {
+            None => true,
+            Some(poly) => {
+                // The box's xy rectangle meets the polygon if a polygon vertex is inside the
+                // rectangle, a rectangle corner is inside the polygon, or an edge pair crosses.
+                let corners = [[lo.x, lo.y], [hi.x, lo.y], [hi.x, hi.y], [lo.x, hi.y]];
+                poly.iter()
+                    .any(|v| v[0] >= lo.x && v[0] <= hi.x && v[1] >= lo.y && v[1] <= hi.y)
+                    || corners.iter().any(|c| point_in_polygon(poly, c[0], c[1]))
+                    || (0..poly.len()).any(|i| {
+                        let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+                        (0..4).any(|j| segments_cross(a, b, corners[j], corners[(j + 1) % 4]))
+                    })
+            }
+        }
+    }
+}
+
+/// Signed area of a polygon (shoelace), m².
+fn polygon_area(poly: &[[f32; 2]]) -> f32 {
+    (0..poly.len())
+        .map(|i| {
+            let (a, b) = (poly[i], poly[(i + 1) % poly.len()]);
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum::<f32>()
+        * 0.5
+}
+
+/// Even–odd point-in-polygon test.
+fn point_in_polygon(poly: &[[f32; 2]], x: f32, y: f32) -> bool {
+    let mut inside = false;
+    let mut j = poly.len() - 1;
+    for i in 0..poly.len() {
+        let (a, b) = (poly[i], poly[j]);
+        if (a[1] > y) != (b[1] > y) && x < (b[0] - a[0]) * (y - a[1]) / (b[1] - a[1]) + a[0] {
+            inside = !inside;
+        }
+        j = i;
+    }
+    inside
+}
+
+/// Whether the segments `a–b` and `c–d` properly cross.
+fn segments_cross(a: [f32; 2], b: [f32; 2], c: [f32; 2], d: [f32; 2]) -> bool {
+    let orient = |p: [f32; 2], q: [f32; 2], r: [f32; 2]| {
+        (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
+    };
+    let (d1, d2) = (orient(c, d, a), orient(c, d, b));
+    let (d3, d4) = (orient(a, b, c), orient(a, b, d));
+    (d1 > 0.0) != (d2 > 0.0) && (d3 > 0.0) != (d4 > 0.0)
 }

@@ -5,12 +5,18 @@
 //! Two passes keep the work proportional to the surfaces rather than to the whole volume:
 //!
 //! 1. **Coarse pass**: the region on a coarse grid (`imaging.coarse_voxel_m`) from a thinned data
-//!    set (every `coarse_step`-th element and position); voxels within `coarse_threshold_db` of the
-//!    coarse peak, dilated by one coarse voxel, form the mask.
+//!    set (every `coarse_step`-th element and position); voxels detected at
+//!    `mask_false_alarm_probability` against the bare-terrain prediction ([`super::detection`]),
+//!    dilated by one coarse voxel, form the mask (with `detection = "peak"`: voxels within
+//!    `coarse_threshold_db` of the coarse peak).
 //! 2. **Fine pass**: the region on the fine grid (`imaging.voxel_m`), cut into bricks of
 //!    [`BRICK`]³ voxels; only bricks that touch the mask are imaged, each its own has-dsp voxel grid
 //!    (positions relative to the brick origin, so `f32` keeps phase accuracy), all bricks updated
-//!    in parallel (rayon) from the same snapshot.
+//!    in parallel (rayon) from the same snapshot. Voxels are detected at
+//!    `false_alarm_probability` against the bare-terrain prediction, imaged alongside from the
+//!    terrain model's echoes with the same noise variance ([`super::detection`]).
+//!
+//! Only bricks and points inside the region (its `region_polygon`, if any) are imaged.
 //!
 //! Profiles are the range-compressed echoes of [`crate::echo`] (path (a): the exact pulse of
 //! has-dsp range compression, tabulated), or with `raw_ofdm` the raw subcarriers of path (b) pushed
@@ -32,10 +38,18 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
-use super::config::ImagingScenario;
-use super::sensors::{PlanarArray, VirtualAperture};
+use super::config::{Detection, ImagingScenario};
+use super::detection::{effective_looks, local_mean, window_radius};
+use super::run::World;
+use super::sensors::{pair_resolution_m, PlanarArray, VirtualAperture};
 use crate::echo::{EchoConfig, EchoError, EchoSynth, Noise, ScattererSet, VisibilityCache};
 use crate::scene::Scene;
+
+/// Wavelength of the incoherent pass: phases `2π r/λ` below 10⁻⁶ rad for any path of the scene.
+const INCOHERENT_WAVELENGTH_M: f32 = 1e9;
+
+/// Seed offset of the terrain model's noise (independent of the data's).
+const MODEL_NOISE_SEED: u64 = 0x0D15_EA5E_0000_7E22;
 
 /// Fine voxels per brick side.
 pub const BRICK: usize = 8;
@@ -263,6 +277,13 @@ impl FrameSource<'_> {
                         }
                         Ok(())
                     })?;
+                if self.noise_var.is_none() {
+                    // The profile-domain noise power at the same SNR definition as the direct
+                    // path (the terrain model's noise; the data's own noise is per subcarrier).
+                    let p = out.iter().map(|z| z.norm_sqr() as f64).sum::<f64>()
+                        / out.len().max(1) as f64;
+                    self.noise_var = Some(p / 10f64.powf(self.snr_db / 10.0));
+                }
             }
         }
         self.synth_s += t.elapsed().as_secs_f64();
@@ -273,8 +294,12 @@ impl FrameSource<'_> {
 /// One brick of the fine grid: its has-dsp configuration and receive elements in its frame.
 struct Brick {
     bp: Backprojector,
+    /// The same grid for the incoherent pass.
+    bp_inc: Backprojector,
     rx_local: Vec<Vec3>,
     offset: usize,
+    /// First fine voxel of the brick on the region's lattice.
+    start: [usize; 3],
 }
 
 enum Accs<'a> {
@@ -288,8 +313,7 @@ enum Accs<'a> {
 /// [`ImagingError`] from has-dsp or echo synthesis (bad geometry, lengths).
 pub fn image_pair(
     sc: &ImagingScenario,
-    scene: &Scene,
-    set: &ScattererSet,
+    world: &World,
     plan: &PairPlan,
     opts: RunOptions,
     progress: &(dyn Fn(u64, u64) + Sync),
@@ -319,7 +343,8 @@ pub fn image_pair(
         6
     };
     echo_cfg.kernel_oversample = 64;
-    let synth = EchoSynth::new(echo_cfg)?;
+    let synth = EchoSynth::new(echo_cfg.clone())?;
+    let clutter_ref = im.detection == Detection::Clutter;
     let raw = if opts.raw_ofdm {
         let symbols = crate::echo::qpsk_symbols(n_sc, im.seed);
         let mut reference = vec![Complex32::new(0.0, 0.0); n_sc];
@@ -333,6 +358,7 @@ pub fn image_pair(
     } else {
         None
     };
+    let (scene, set) = (&world.scene, &world.scatterers);
     let mut src = FrameSource {
         scene,
         set,
@@ -347,11 +373,54 @@ pub fn image_pair(
         first_visible: 0,
     };
     let pulse_error = src.synth.kernel().error_bound();
+    // The bare known terrain through the same pair (module docs of `super::detection`).
+    let mut model = if clutter_ref {
+        Some(FrameSource {
+            scene: &world.terrain.scene,
+            set: &world.terrain.scatterers,
+            synth: EchoSynth::new(echo_cfg)?,
+            array_centre: geo.array.centre,
+            cache: VisibilityCache::new(im.visibility_shift_m),
+            noise_var: None,
+            snr_db: sc.radar.snr_db,
+            seed: src.seed ^ MODEL_NOISE_SEED,
+            raw: None,
+            synth_s: 0.0,
+            first_visible: 0,
+        })
+    } else {
+        None
+    };
+    // Reference window and CFAR factors from the pair's resolution cell at the region centre.
+    let (r_res, xv_res, _, xz_res) = pair_resolution_m(
+        (lo + hi) * 0.5,
+        &geo.array,
+        &geo.aperture,
+        lambda as f32,
+        (sc.radar.bandwidth_mhz * 1e6) as f32,
+    );
+    let cell_m3 = r_res * xv_res * xz_res;
+    let cell_m = cell_m3.cbrt();
+    let cfar = |voxel_m: f32, pfa: f64| -> (usize, f32) {
+        let radius = window_radius(cell_m, voxel_m);
+        let n = (2 * radius + 1).pow(3);
+        let looks = effective_looks(n, voxel_m, cell_m3);
+        (radius, has_dsp::cfar::mean_level_factor(pfa, looks) as f32)
+    };
 
-    let rx_fine = geo.array.elements(im.element_step);
-    let tx_fine = geo.aperture.positions(im.position_step);
-    let rx_coarse = geo.array.elements(im.element_step * im.coarse_step);
-    let tx_coarse = geo.aperture.positions(im.position_step * im.coarse_step);
+    // Thinned arrays and apertures are jittered, not periodic (no grating lobes; see
+    // `PlanarArray::elements_jittered`), with a draw of their own per pair and pass.
+    let thin_seed = src.seed ^ 0x5A4D_F00D_0000_0000;
+    let rx_fine = geo.array.elements_jittered(im.element_step, thin_seed);
+    let tx_fine = geo
+        .aperture
+        .positions_jittered(im.position_step, thin_seed ^ 1);
+    let rx_coarse = geo
+        .array
+        .elements_jittered(im.element_step * im.coarse_step, thin_seed ^ 2);
+    let tx_coarse = geo
+        .aperture
+        .positions_jittered(im.position_step * im.coarse_step, thin_seed ^ 3);
     let total = (tx_fine.len() + tx_coarse.len()) as u64;
     let mut done = 0u64;
     let mut stats = PairStats {
@@ -369,6 +438,17 @@ pub fn image_pair(
         interp: Interp::Linear,
         phase: PhaseEval::Poly,
     };
+    // The incoherent pass: back-projection of the profiles' power |s|² with no carrier phase
+    // (a wavelength far beyond any path), i.e. Σ_k |s_k(r_k(v))|² — the expected |I(v)|² if the
+    // echoes in the range cells that focus at v were incoherent with respect to v.
+    let bp_inc_cfg = |grid: VoxelGrid| BpConfig {
+        grid,
+        wavelength_m: INCOHERENT_WAVELENGTH_M,
+        r0_m: geo.r0_m as f32,
+        dr_m: geo.dr_m as f32,
+        interp: Interp::Linear,
+        phase: PhaseEval::Poly,
+    };
 
     // ---- Coarse pass: the mask.
     let cv = im.coarse_voxel_m;
@@ -379,59 +459,105 @@ pub fn image_pair(
         dims: cdims,
     };
     let cbp = Backprojector::new(bp_cfg(cgrid))?;
+    let cbp_inc = Backprojector::new(bp_inc_cfg(cgrid))?;
     let mut cimg = vec![Complex32::new(0.0, 0.0); cbp.voxels()];
+    let mut cimg_m = vec![Complex32::new(0.0, 0.0); if clutter_ref { cbp.voxels() } else { 0 }];
+    let mut cimg_i = vec![Complex32::new(0.0, 0.0); if clutter_ref { cbp.voxels() } else { 0 }];
     let rx_c_local: Vec<Vec3> = rx_coarse.iter().map(|&p| cgrid.local(p)).collect();
     let mut prof = vec![Complex32::new(0.0, 0.0); rx_coarse.len() * geo.n_bins];
+    let mut mprof = vec![Complex32::new(0.0, 0.0); if clutter_ref { prof.len() } else { 0 }];
+    let mut iprof = mprof.clone();
     let tile = cimg.len().div_ceil(rayon::current_num_threads() * 4).max(1);
     {
-        let mut accs = cimg
-            .chunks_mut(tile)
-            .enumerate()
-            .map(|(i, c)| AccF32::tile(&cbp, i * tile, c))
-            .collect::<Result<Vec<_>, _>>()?;
+        let mut accs = coarse_tiles(&cbp, &mut cimg, tile)?;
+        let mut accs_m = coarse_tiles(&cbp, &mut cimg_m, tile)?;
+        let mut accs_i = coarse_tiles(&cbp_inc, &mut cimg_i, tile)?;
         for (f, &tx) in tx_coarse.iter().enumerate() {
             src.frame(usize::MAX - f, tx, &rx_coarse, &mut prof)?;
+            if let Some(m) = model.as_mut() {
+                m.noise_var = src.noise_var;
+                m.frame(usize::MAX - f, tx, &rx_coarse, &mut mprof)?;
+                power_of(&prof, &mut iprof);
+            }
             let t = Instant::now();
             let snap = Snapshot {
                 tx: cgrid.local(tx),
                 rx: &rx_c_local,
-                profiles: &prof,
+                profiles: &iprof,
                 profile_len: geo.n_bins,
             };
-            accs.par_iter_mut()
-                .try_for_each(|acc| cbp.push_snapshot(acc, &snap))?;
+            accs_i
+                .par_iter_mut()
+                .try_for_each(|acc| cbp_inc.push_snapshot(acc, &snap))?;
+            for (accs, profiles) in [(&mut accs, &prof), (&mut accs_m, &mprof)] {
+                let snap = Snapshot {
+                    tx: cgrid.local(tx),
+                    rx: &rx_c_local,
+                    profiles,
+                    profile_len: geo.n_bins,
+                };
+                accs.par_iter_mut()
+                    .try_for_each(|acc| cbp.push_snapshot(acc, &snap))?;
+            }
             stats.bp_s += t.elapsed().as_secs_f64();
             done += 1;
             progress(done, total);
         }
     }
     stats.coarse_voxels = cimg.len();
-    stats.backprojections += (cimg.len() * rx_coarse.len() * tx_coarse.len()) as f64;
-    let cmax = cimg.iter().map(|z| z.norm()).fold(0.0f32, f32::max);
-    let cthr = cmax * 10f32.powf(im.coarse_threshold_db / 20.0);
+    let passes = if clutter_ref { 3 } else { 1 };
+    stats.backprojections += (passes * cimg.len() * rx_coarse.len() * tx_coarse.len()) as f64;
     let [cx, cy, cz] = cdims;
+    let coarse_in_region = |i: usize| {
+        let q = Vec3::new(
+            (i % cx) as f32,
+            ((i / cx) % cy) as f32,
+            (i / (cx * cy)) as f32,
+        );
+        let p = lo + q * cv;
+        sc.box_touches_region(p - Vec3::splat(cv), p + Vec3::splat(cv))
+    };
+    let coarse_detected: Vec<bool> = if clutter_ref {
+        let (radius, alpha) = cfar(cv, im.mask_false_alarm_probability);
+        let pm: Vec<f32> = cimg_m.iter().map(|z| z.norm_sqr()).collect();
+        let c = local_mean(&pm, cdims, radius);
+        cimg.iter()
+            .zip(&c)
+            .zip(&cimg_i)
+            .enumerate()
+            .map(|(i, ((z, &c), inc))| {
+                z.norm_sqr() >= alpha * (c + inc.re.max(0.0)) && coarse_in_region(i)
+            })
+            .collect()
+    } else {
+        let cmax = cimg.iter().map(|z| z.norm()).fold(0.0f32, f32::max);
+        let cthr = cmax * 10f32.powf(im.coarse_threshold_db / 20.0);
+        cimg.iter()
+            .map(|z| cmax > 0.0 && z.norm() >= cthr)
+            .collect()
+    };
     let mut mask = vec![false; cimg.len()];
-    for (i, z) in cimg.iter().enumerate() {
-        if cmax > 0.0 && z.norm() >= cthr {
-            let (x, y, zz) = (i % cx, (i / cx) % cy, i / (cx * cy));
-            for dz in -1i64..=1 {
-                for dy in -1i64..=1 {
-                    for dx in -1i64..=1 {
-                        let (a, b, c) = (x as i64 + dx, y as i64 + dy, zz as i64 + dz);
-                        if a >= 0
-                            && b >= 0
-                            && c >= 0
-                            && (a as usize) < cx
-                            && (b as usize) < cy
-                            && (c as usize) < cz
-                        {
-                            mask[a as usize + cx * (b as usize + cy * c as usize)] = true;
-                        }
+    for (i, _) in coarse_detected.iter().enumerate().filter(|(_, &d)| d) {
+        let (x, y, zz) = (i % cx, (i / cx) % cy, i / (cx * cy));
+        for dz in -1i64..=1 {
+            for dy in -1i64..=1 {
+                for dx in -1i64..=1 {
+                    let (a, b, c) = (x as i64 + dx, y as i64 + dy, zz as i64 + dz);
+                    if a >= 0
+                        && b >= 0
+                        && c >= 0
+                        && (a as usize) < cx
+                        && (b as usize) < cy
+                        && (c as usize) < cz
+                    {
+                        mask[a as usize + cx * (b as usize + cy * c as usize)] = true;
                     }
                 }
             }
         }
     }
+    drop(cimg_m);
+    drop(cimg_i);
     drop(cimg);
 
     // ---- Fine pass over the bricks that touch the mask.
@@ -472,7 +598,8 @@ pub fn image_pair(
                             )
                     })
                     .chain(std::iter::once(origin + ext * 0.5));
-                if !probes.into_iter().any(in_mask) {
+                if !probes.into_iter().any(in_mask) || !sc.box_touches_region(origin, origin + ext)
+                {
                     continue;
                 }
                 let grid = VoxelGrid {
@@ -481,11 +608,14 @@ pub fn image_pair(
                     dims,
                 };
                 let bp = Backprojector::new(bp_cfg(grid))?;
+                let bp_inc = Backprojector::new(bp_inc_cfg(grid))?;
                 let n = bp.voxels();
                 bricks.push(Brick {
                     rx_local: rx_fine.iter().map(|&p| grid.local(p)).collect(),
                     bp,
+                    bp_inc,
                     offset,
+                    start,
                 });
                 offset += n;
             }
@@ -499,7 +629,35 @@ pub fn image_pair(
     let mut prof_q = vec![CQ15::default(); if opts.fixed_point { prof.len() } else { 0 }];
     let mut exps = vec![0i32; rx_fine.len()];
     let mut qimg = vec![Complex32::new(0.0, 0.0); if opts.fixed_point { offset } else { 0 }];
+    let mut img_m = vec![Complex32::new(0.0, 0.0); if clutter_ref { offset } else { 0 }];
+    let mut img_i = img_m.clone();
+    let mut mprof = vec![Complex32::new(0.0, 0.0); if clutter_ref { prof.len() } else { 0 }];
+    let mut iprof = mprof.clone();
     {
+        let mut accs_i = {
+            let mut v = Vec::new();
+            if clutter_ref {
+                let mut rest: &mut [Complex32] = &mut img_i;
+                for b in &bricks {
+                    let (head, tail) = rest.split_at_mut(b.bp.voxels());
+                    v.push(AccF32::tile(&b.bp_inc, 0, head)?);
+                    rest = tail;
+                }
+            }
+            v
+        };
+        let mut accs_m = {
+            let mut v = Vec::new();
+            if clutter_ref {
+                let mut rest: &mut [Complex32] = &mut img_m;
+                for b in &bricks {
+                    let (head, tail) = rest.split_at_mut(b.bp.voxels());
+                    v.push(AccF32::tile(&b.bp, 0, head)?);
+                    rest = tail;
+                }
+            }
+            v
+        };
         let mut accs = if opts.fixed_point {
             let mut v = Vec::with_capacity(bricks.len());
             let mut rest: &mut [num_complex::Complex<i64>] = &mut raw_q;
@@ -521,7 +679,40 @@ pub fn image_pair(
         };
         for (f, &tx) in tx_fine.iter().enumerate() {
             src.frame(f, tx, &rx_fine, &mut prof)?;
+            if let Some(m) = model.as_mut() {
+                m.noise_var = src.noise_var;
+                m.frame(f, tx, &rx_fine, &mut mprof)?;
+                power_of(&prof, &mut iprof);
+            }
             let t = Instant::now();
+            accs_i
+                .par_iter_mut()
+                .zip(bricks.par_iter())
+                .try_for_each(|(acc, b)| {
+                    b.bp_inc.push_snapshot(
+                        acc,
+                        &Snapshot {
+                            tx: b.bp.grid().local(tx),
+                            rx: &b.rx_local,
+                            profiles: &iprof,
+                            profile_len: geo.n_bins,
+                        },
+                    )
+                })?;
+            accs_m
+                .par_iter_mut()
+                .zip(bricks.par_iter())
+                .try_for_each(|(acc, b)| {
+                    b.bp.push_snapshot(
+                        acc,
+                        &Snapshot {
+                            tx: b.bp.grid().local(tx),
+                            rx: &b.rx_local,
+                            profiles: &mprof,
+                            profile_len: geo.n_bins,
+                        },
+                    )
+                })?;
             match &mut accs {
                 Accs::F32(v) => {
                     v.par_iter_mut()
@@ -576,16 +767,67 @@ pub fn image_pair(
     if opts.fixed_point {
         img = qimg;
     }
-    stats.backprojections += (offset * rx_fine.len() * tx_fine.len()) as f64;
-    stats.synth_s = src.synth_s;
+    stats.backprojections += (passes * offset * rx_fine.len() * tx_fine.len()) as f64;
+    stats.synth_s = src.synth_s + model.as_ref().map_or(0.0, |m| m.synth_s);
     stats.visible_scatterers = src.first_visible;
 
-    let (points, intensity) = extract_points(&bricks, &img, &geo, im.threshold_db, im.local_max);
+    let detected: Vec<bool> = if clutter_ref {
+        // The predicted bare-terrain power's local mean on the region lattice (NaN where no brick
+        // was imaged), then the CFAR test voxel by voxel.
+        let (radius, alpha) = cfar(v, im.false_alarm_probability);
+        let mut pm = vec![f32::NAN; stats.region_voxels];
+        let gidx = |b: &Brick, i: usize| {
+            let d = b.bp.grid().dims;
+            let (x, y, z) = (i % d[0], (i / d[0]) % d[1], i / (d[0] * d[1]));
+            (b.start[0] + x) + fdims[0] * ((b.start[1] + y) + fdims[1] * (b.start[2] + z))
+        };
+        for b in &bricks {
+            for i in 0..b.bp.voxels() {
+                pm[gidx(b, i)] = img_m[b.offset + i].norm_sqr();
+            }
+        }
+        let c = local_mean(&pm, fdims, radius);
+        drop(pm);
+        let mut det = vec![false; offset];
+        for b in &bricks {
+            for i in 0..b.bp.voxels() {
+                let h0 = c[gidx(b, i)] + img_i[b.offset + i].re.max(0.0);
+                det[b.offset + i] = img[b.offset + i].norm_sqr() >= alpha * h0;
+            }
+        }
+        det
+    } else {
+        let peak = img.iter().map(|z| z.norm()).fold(0.0f32, f32::max);
+        let thr = peak * 10f32.powf(im.threshold_db / 20.0);
+        img.iter().map(|z| peak > 0.0 && z.norm() >= thr).collect()
+    };
+    drop(img_m);
+    drop(img_i);
+    let (points, intensity) = extract_points(sc, &bricks, &img, &detected, &geo, im.local_max);
     Ok(PairImage {
         points,
         intensity,
         stats,
     })
+}
+
+/// `out[i] = |p[i]|²` (as a real-valued complex profile, for the incoherent pass).
+fn power_of(p: &[Complex32], out: &mut [Complex32]) {
+    out.par_iter_mut()
+        .zip(p.par_iter())
+        .for_each(|(o, z)| *o = Complex32::new(z.norm_sqr(), 0.0));
+}
+
+/// Accumulators over `img` in tiles of `tile` voxels of the coarse grid `bp`.
+fn coarse_tiles<'a>(
+    bp: &'a Backprojector,
+    img: &'a mut [Complex32],
+    tile: usize,
+) -> Result<Vec<AccF32<'a>>, has_dsp::DspError> {
+    img.chunks_mut(tile)
+        .enumerate()
+        .map(|(i, c)| AccF32::tile(bp, i * tile, c))
+        .collect()
 }
 
 fn dims_of(lo: Vec3, hi: Vec3, v: f32) -> [usize; 3] {
@@ -596,17 +838,13 @@ fn dims_of(lo: Vec3, hi: Vec3, v: f32) -> [usize; 3] {
 /// Thresholds the fine image and, optionally, keeps only voxels that are local maxima of `|I|`
 /// along the bistatic range gradient (the direction the pair resolves best).
 fn extract_points(
+    sc: &ImagingScenario,
     bricks: &[Brick],
     img: &[Complex32],
+    detected: &[bool],
     geo: &PairGeometry,
-    threshold_db: f32,
     local_max: bool,
 ) -> (Vec<Vec3>, Vec<f32>) {
-    let peak = img.iter().map(|z| z.norm()).fold(0.0f32, f32::max);
-    if peak <= 0.0 {
-        return (Vec::new(), Vec::new());
-    }
-    let thr = peak * 10f32.powf(threshold_db / 20.0);
     // Lookup of |I| at any world position imaged (nearest voxel; None outside active bricks).
     let v = bricks.first().map(|b| b.bp.grid().spacing.x).unwrap_or(1.0);
     let mut index = std::collections::HashMap::new();
@@ -644,10 +882,13 @@ fn extract_points(
         let g = b.bp.grid();
         for i in 0..b.bp.voxels() {
             let a = img[b.offset + i].norm();
-            if a < thr {
+            if !detected[b.offset + i] {
                 continue;
             }
             let p = g.voxel_world(i).unwrap_or(g.origin);
+            if !sc.in_region(p) {
+                continue;
+            }
             if local_max {
                 let grad = ((p - tx_c).normalize_or_zero() + (p - rx_c).normalize_or_zero())
                     .normalize_or_zero();
@@ -659,8 +900,13 @@ fn extract_points(
                 }
             }
             points.push(p);
-            intensity.push(a / peak);
+            intensity.push(a);
         }
+    }
+    // Relative to the strongest detection (fusion weights).
+    let peak = intensity.iter().copied().fold(0.0f32, f32::max);
+    if peak > 0.0 {
+        intensity.iter_mut().for_each(|i| *i /= peak);
     }
     (points, intensity)
 }

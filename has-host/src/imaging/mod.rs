@@ -2,14 +2,16 @@
 //! driver that feeds has-dsp back-projection, pair planning, point-cloud extraction and fusion.
 
 pub mod config;
+pub mod detection;
 pub mod driver;
 pub mod run;
 pub mod sensors;
 
-pub use config::{ImagingScenario, ScenarioError};
+pub use config::{Detection, ImagingScenario, ScenarioError};
 pub use driver::{image_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions};
 pub use run::{
-    build_world, every_pairing, fuse, observable_truth, observing_pairs, observing_sensors,
-    plan_pairs, run_imaging, share_pct, FusedCloud, RunError, RunResult, World,
+    build_world, check_memory, every_pairing, fuse, memory_estimate, observable_truth,
+    observing_pairs, observing_sensors, plan_pairs, run_imaging, share_pct, FusedCloud, RunError,
+    RunResult, Terrain, World,
 };
 pub use sensors::{nyquist_spacing_m, pair_resolution_m, PlanarArray, VirtualAperture};

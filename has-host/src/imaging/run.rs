@@ -42,6 +42,20 @@ pub struct World {
     pub truth_triangles: Vec<[Vec3; 3]>,
     /// Per object: is it ground.
     pub is_ground: Vec<bool>,
+    /// What the operator knows of the site before imaging it: the terrain (the `ground_objects`
+    /// alone, no buildings) and an independent realisation of its scatterers (same density,
+    /// footprint and material, another seed). Imaged through the same chain, it predicts the
+    /// clutter-plus-noise power each voxel would hold if the site were bare (see
+    /// [`super::detection`]).
+    pub terrain: Terrain,
+}
+
+/// The known terrain of a site: its scene and a model realisation of its scatterers.
+pub struct Terrain {
+    /// The ground objects alone (or, without any, the full scene with no model scatterers).
+    pub scene: Scene,
+    /// Model scatterers on the terrain (empty when the scenario names no ground object).
+    pub scatterers: ScattererSet,
 }
 
 /// Errors of a run, beyond the driver's.
@@ -70,13 +84,76 @@ pub enum RunError {
     /// No pair sees anything.
     #[error("no base station–aperture pair sees the imaging region")]
     NoPairs,
+    /// The imaging region would need more memory than the machine has.
+    #[error(
+        "imaging region: {voxels} fine voxels of {voxel_m} m need up to {need_gib:.1} GiB, more than the {have_gib:.1} GiB available; shrink imaging.region_min/region_max or coarsen imaging.voxel_m"
+    )]
+    TooLarge {
+        /// Fine voxels of the region's bounding box.
+        voxels: usize,
+        /// Fine voxel edge, metres.
+        voxel_m: f32,
+        /// The estimate, GiB.
+        need_gib: f64,
+        /// Memory available, GiB.
+        have_gib: f64,
+    },
+}
+
+/// Worst-case bytes per fine voxel of one pair's imaging (every brick active): the data, terrain
+/// and incoherent images (3 × 8 B), the fixed-point accumulator and its conversion (16 + 8 B),
+/// the dense detection arrays (predicted power, two running sums, local mean: 4 × 4 B) and the
+/// bricks' receive positions for two back-projectors (≈ 2 × 12 B × elements / 512 voxels, at
+/// most 2 × 12 × 1024 / 512 = 48 B).
+pub const IMAGING_BYTES_PER_VOXEL: usize = 3 * 8 + 16 + 8 + 4 * 4 + 48;
+
+/// Fine voxels of the region's bounding box and the worst-case bytes one pair's imaging needs.
+pub fn memory_estimate(sc: &ImagingScenario) -> (usize, u64) {
+    let (lo, hi) = sc.region();
+    let d = ((hi - lo) / sc.imaging.voxel_m).floor() + Vec3::ONE;
+    let voxels = (d.x as f64 * d.y as f64 * d.z as f64).min(usize::MAX as f64) as usize;
+    (
+        voxels,
+        (voxels as u64).saturating_mul(IMAGING_BYTES_PER_VOXEL as u64),
+    )
+}
+
+/// `MemAvailable` of `/proc/meminfo`, bytes (None where there is no such file).
+fn available_memory_bytes() -> Option<u64> {
+    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
+    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
+    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
+    Some(kib * 1024)
+}
+
+/// Refuses a region whose worst-case imaging memory ([`memory_estimate`]) exceeds the memory
+/// available, before anything is allocated.
+///
+/// # Errors
+/// [`RunError::TooLarge`] with the estimate.
+pub fn check_memory(sc: &ImagingScenario) -> Result<(), RunError> {
+    let (voxels, need) = memory_estimate(sc);
+    if let Some(have) = available_memory_bytes() {
+        if need > have {
+            let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
+            return Err(RunError::TooLarge {
+                voxels,
+                voxel_m: sc.imaging.voxel_m,
+                need_gib: gib(need),
+                have_gib: gib(have),
+            });
+        }
+    }
+    Ok(())
 }
 
 /// Builds the scene, the scatterers and the ground truth.
 ///
 /// # Errors
-/// [`RunError`] naming what is wrong.
+/// [`RunError`] naming what is wrong; [`RunError::TooLarge`] for a region that would not fit in
+/// memory ([`check_memory`]), before the scene is built.
 pub fn build_world(sc: &ImagingScenario) -> Result<World, RunError> {
+    check_memory(sc)?;
     let scene = sc.scene.build()?;
     let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
     for n in &sc.imaging.ground_objects {
@@ -123,6 +200,7 @@ pub fn build_world(sc: &ImagingScenario) -> Result<World, RunError> {
         },
     )?;
     set.points.extend(ground.points);
+    let terrain = terrain_model(sc, &scene, &is_ground)?;
     let truth_triangles: Vec<[Vec3; 3]> = scene
         .objects
         .iter()
@@ -144,6 +222,48 @@ pub fn build_world(sc: &ImagingScenario) -> Result<World, RunError> {
         truth,
         truth_triangles,
         is_ground,
+        terrain,
+    })
+}
+
+/// Seed offset of the terrain model's scatterers: a realisation independent of the true ground's
+/// (`seed + 1`), so the model knows the terrain's statistics, not its echoes.
+const TERRAIN_MODEL_SEED: u64 = 0x7E22_A1D0_5EED_0001;
+
+/// The known terrain (module [`World::terrain`]).
+fn terrain_model(
+    sc: &ImagingScenario,
+    scene: &Scene,
+    is_ground: &[bool],
+) -> Result<Terrain, RunError> {
+    let ground: Vec<crate::scene::Object> = scene
+        .objects
+        .iter()
+        .zip(is_ground)
+        .filter(|(_, &g)| g)
+        .map(|(o, _)| o.clone())
+        .collect();
+    if ground.is_empty() {
+        let mut empty = ScattererSet::sample_where(scene, 1.0, 0, |_, _| false)?;
+        empty.points.clear();
+        return Ok(Terrain {
+            scene: Scene::new(scene.objects.clone())
+                .map_err(crate::scenario::SceneSpecError::from)?,
+            scatterers: empty,
+        });
+    }
+    let tscene = Scene::new(ground).map_err(crate::scenario::SceneSpecError::from)?;
+    let (lo, hi) = sc.region();
+    let m = sc.imaging.ground_margin_m;
+    let scatterers = ScattererSet::sample_where(
+        &tscene,
+        sc.imaging.ground_density_per_m2,
+        sc.imaging.seed ^ TERRAIN_MODEL_SEED,
+        |_, p| p.x >= lo.x - m && p.x <= hi.x + m && p.y >= lo.y - m && p.y <= hi.y + m,
+    )?;
+    Ok(Terrain {
+        scene: tscene,
+        scatterers,
     })
 }
 
@@ -417,11 +537,10 @@ pub fn run_imaging(
     opts: RunOptions,
     progress: &(dyn Fn(usize, u64, u64) + Sync),
 ) -> Result<RunResult, RunError> {
+    check_memory(sc)?;
     let mut images = Vec::with_capacity(plans.len());
     for (k, p) in plans.iter().enumerate() {
-        let img = image_pair(sc, &world.scene, &world.scatterers, p, opts, &|d, t| {
-            progress(k, d, t)
-        })?;
+        let img = image_pair(sc, world, p, opts, &|d, t| progress(k, d, t))?;
         images.push(img);
     }
     let fused = fuse(sc, &plans, &images, sc.imaging.voxel_m);
@@ -430,4 +549,43 @@ pub fn run_imaging(
         images,
         fused,
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn factory() -> ImagingScenario {
+        ImagingScenario::from_toml_str(include_str!("../../../fixtures/factory.toml"))
+            .expect("bundled factory")
+    }
+
+    #[test]
+    fn a_region_beyond_the_machines_memory_is_refused_before_anything_is_built() {
+        let mut sc = factory();
+        sc.imaging.region_min = [-5000.0, -5000.0, 0.0];
+        sc.imaging.region_max = [5000.0, 5000.0, 500.0];
+        let (voxels, need) = memory_estimate(&sc);
+        assert!(voxels > 1_000_000_000_000 && need > voxels as u64);
+        match build_world(&sc) {
+            Err(e @ RunError::TooLarge { .. }) => {
+                let msg = e.to_string();
+                assert!(
+                    msg.contains("GiB") && msg.contains("imaging.voxel_m"),
+                    "{msg}"
+                );
+                assert_eq!(msg.lines().count(), 1);
+            }
+            Err(e) => panic!("unexpected error {e}"),
+            Ok(_) => panic!("a 10 km region at 0.25 m was accepted"),
+        }
+    }
+
+    #[test]
+    fn the_bundled_region_fits() {
+        let sc = factory();
+        let (voxels, need) = memory_estimate(&sc);
+        assert_eq!(need, voxels as u64 * IMAGING_BYTES_PER_VOXEL as u64);
+        assert!(check_memory(&sc).is_ok());
+    }
 }

@@ -9,6 +9,8 @@
 //! the bottom).
 
 use glam::Vec3;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 
 /// A vertical uniform planar array (the base station's real aperture).
 #[derive(Clone, Debug, PartialEq)]
@@ -74,6 +76,29 @@ impl PlanarArray {
         }
         out
     }
+
+    /// One element per `step × step` block of the panel, at a seeded random row and column
+    /// within the block (jittered thinning): the same count as [`PlanarArray::elements`], but no
+    /// periodic gaps, so no grating lobes — the replicas of a periodic `step`-thinned panel
+    /// (spacing `step·d`, lobes every `λ/(step·d)` in direction sine) decohere into a diffuse
+    /// sidelobe floor of about `1/N` in power. `step = 1` gives every element, as
+    /// [`PlanarArray::elements`].
+    pub fn elements_jittered(&self, step: usize, seed: u64) -> Vec<Vec3> {
+        let step = step.max(1);
+        if step == 1 {
+            return self.elements(1);
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let mut out = Vec::with_capacity((self.rows / step + 1) * (self.cols / step + 1));
+        for r0 in (0..self.rows).step_by(step) {
+            for c0 in (0..self.cols).step_by(step) {
+                let r = r0 + rng.random_range(0..step.min(self.rows - r0));
+                let c = c0 + rng.random_range(0..step.min(self.cols - c0));
+                out.push(self.element(r, c));
+            }
+        }
+        out
+    }
 }
 
 /// A straight virtual aperture: the terminal transmits at `positions` evenly spaced points from
@@ -110,6 +135,25 @@ impl VirtualAperture {
                 } else {
                     self.start.lerp(self.end, i as f32 / (n - 1) as f32)
                 }
+            })
+            .collect()
+    }
+
+    /// One transmit position per run of `step`, at a seeded random index within the run
+    /// (jittered thinning, as [`PlanarArray::elements_jittered`]): no periodic gaps, so no
+    /// grating lobes along the track. `step = 1` gives every position.
+    pub fn positions_jittered(&self, step: usize, seed: u64) -> Vec<Vec3> {
+        let step = step.max(1);
+        let n = self.positions.max(1);
+        if step == 1 || n == 1 {
+            return self.positions(1);
+        }
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        (0..n)
+            .step_by(step)
+            .map(|i0| {
+                let i = i0 + rng.random_range(0..step.min(n - i0));
+                self.start.lerp(self.end, i as f32 / (n - 1) as f32)
             })
             .collect()
     }
