@@ -293,7 +293,7 @@ fn default_pfa() -> f64 {
     1e-4
 }
 fn default_mask_pfa() -> f64 {
-    1e-2
+    0.1
 }
 fn default_ground_density() -> f64 {
     2.0
