@@ -15,11 +15,10 @@ fn quick_localization_meets_its_documented_bounds() {
     let eca = l["eca"]["sqrt_chamfer_m"].as_f64().expect("eca √CD");
     let env = l["env"]["sqrt_chamfer_m"].as_f64().expect("env √CD");
     // Measured on the bundled scenario with the quick twin (deterministic per seed): ECA
-    // 1.446 m; environment prior 1.370 m on the twin of peak-referenced detection, 1.400 m on the
-    // twin of clutter-referenced detection (issue 13). The environment prior is held to the same
-    // bound as ECA: a twin must not make localization worse than the chain without it.
+    // 1.446 m, environment prior 1.294 m (4 and 67 false alarms; 1.370 m on the twin of the
+    // former peak-referenced detection). The bounds fail only if the chain gets worse.
     assert!(eca <= 1.5, "ECA √CD {eca} m");
-    assert!(env <= 1.5, "env √CD {env} m");
+    assert!(env <= 1.4, "env √CD {env} m");
     // With ECA the only false alarms left are noise and target sidelobes: the CFAR holds its
     // design rate, so they stay below the design expectation cells·pfa·frames (46 for this
     // preset; a CFAR blind to the correlation of its range bins gave 220).
