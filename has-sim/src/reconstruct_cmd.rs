@@ -66,6 +66,23 @@ pub struct ReconstructArgs {
     pub no_mesh: bool,
 }
 
+impl ReconstructArgs {
+    /// Every option at its command-line default: `reconstruct [SCENARIO] --out OUT [--quick]`.
+    pub fn defaults(scenario: Option<PathBuf>, out: &Path, quick: bool) -> Self {
+        Self {
+            scenario,
+            out: out.to_path_buf(),
+            quick,
+            fixed_point: false,
+            raw_ofdm: false,
+            mesh_depth: None,
+            mesh_trim_median: DEFAULT_MESH_TRIM_MEDIAN,
+            visibility_filter: false,
+            no_mesh: false,
+        }
+    }
+}
+
 /// Loads the scenario file at `path`, or the bundled factory without one; returns it with the
 /// name reports show.
 pub fn load_scenario(path: Option<&Path>) -> Result<(ImagingScenario, String)> {
@@ -275,18 +292,8 @@ fn mesh_stage(
 /// `quick`, writing everything into `out`, and returns the path of the mesh it wrote
 /// (`out/mesh.obj`): the digital twin that `channel` and `localize` ray-trace when no mesh is given.
 pub fn build_twin(scenario: Option<PathBuf>, out: &Path, quick: bool) -> Result<PathBuf> {
-    run(ReconstructArgs {
-        scenario,
-        out: out.to_path_buf(),
-        quick,
-        fixed_point: false,
-        raw_ofdm: false,
-        mesh_depth: None,
-        mesh_trim_median: DEFAULT_MESH_TRIM_MEDIAN,
-        visibility_filter: false,
-        no_mesh: false,
-    })
-    .context("reconstructing the digital twin")?;
+    run(ReconstructArgs::defaults(scenario, out, quick))
+        .context("reconstructing the digital twin")?;
     Ok(out.join("mesh.obj"))
 }
 

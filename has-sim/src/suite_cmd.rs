@@ -15,7 +15,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde::Serialize;
 
-use crate::reconstruct_cmd::{ReconstructArgs, DEFAULT_MESH_TRIM_MEDIAN};
+use crate::reconstruct_cmd::ReconstructArgs;
 
 /// The suite directory of the source tree, used when `fixtures/suite` is not below the current
 /// directory.
@@ -157,17 +157,7 @@ fn select(all: &[(String, PathBuf)], names: &[String]) -> Result<Vec<(String, Pa
 
 /// Reconstructs one site into `out`; a panic becomes an error.
 fn run_site(scenario: &Path, out: &Path, quick: bool) -> Result<()> {
-    let args = ReconstructArgs {
-        scenario: Some(scenario.to_path_buf()),
-        out: out.to_path_buf(),
-        quick,
-        fixed_point: false,
-        raw_ofdm: false,
-        mesh_depth: None,
-        mesh_trim_median: DEFAULT_MESH_TRIM_MEDIAN,
-        visibility_filter: false,
-        no_mesh: false,
-    };
+    let args = ReconstructArgs::defaults(Some(scenario.to_path_buf()), out, quick);
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         crate::reconstruct_cmd::run(args)
     })) {

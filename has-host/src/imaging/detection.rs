@@ -51,7 +51,7 @@ pub fn local_mean(power: &[f32], dims: [usize; 3], radius: usize) -> Vec<f32> {
         .map(|&p| if p.is_finite() { 1.0 } else { 0.0 })
         .collect();
     let strides = [1, dims[0], dims[0] * dims[1]];
-    let mut line = Vec::new();
+    let mut prefix: Vec<f64> = Vec::new();
     for axis in 0..3 {
         let len = dims[axis];
         let stride = strides[axis];
@@ -61,12 +61,13 @@ pub fn local_mean(power: &[f32], dims: [usize; 3], radius: usize) -> Vec<f32> {
                 if !(start / stride).is_multiple_of(len) {
                     continue;
                 }
-                line.clear();
-                line.extend((0..len).map(|i| buf[start + i * stride] as f64));
-                let mut prefix = Vec::with_capacity(len + 1);
+                // Prefix sums of the line: prefix[i] = Σ_{j<i} value_j.
+                prefix.clear();
                 prefix.push(0.0f64);
-                for &x in &line {
-                    prefix.push(prefix.last().copied().unwrap_or(0.0) + x);
+                let mut acc = 0.0f64;
+                for i in 0..len {
+                    acc += buf[start + i * stride] as f64;
+                    prefix.push(acc);
                 }
                 for i in 0..len {
                     let a = i.saturating_sub(radius);

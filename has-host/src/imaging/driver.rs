@@ -634,30 +634,8 @@ pub fn image_pair(
     let mut mprof = vec![Complex32::new(0.0, 0.0); if clutter_ref { prof.len() } else { 0 }];
     let mut iprof = mprof.clone();
     {
-        let mut accs_i = {
-            let mut v = Vec::new();
-            if clutter_ref {
-                let mut rest: &mut [Complex32] = &mut img_i;
-                for b in &bricks {
-                    let (head, tail) = rest.split_at_mut(b.bp.voxels());
-                    v.push(AccF32::tile(&b.bp_inc, 0, head)?);
-                    rest = tail;
-                }
-            }
-            v
-        };
-        let mut accs_m = {
-            let mut v = Vec::new();
-            if clutter_ref {
-                let mut rest: &mut [Complex32] = &mut img_m;
-                for b in &bricks {
-                    let (head, tail) = rest.split_at_mut(b.bp.voxels());
-                    v.push(AccF32::tile(&b.bp, 0, head)?);
-                    rest = tail;
-                }
-            }
-            v
-        };
+        let mut accs_i = brick_accs_f32(&bricks, &mut img_i, |b| &b.bp_inc)?;
+        let mut accs_m = brick_accs_f32(&bricks, &mut img_m, |b| &b.bp)?;
         let mut accs = if opts.fixed_point {
             let mut v = Vec::with_capacity(bricks.len());
             let mut rest: &mut [num_complex::Complex<i64>] = &mut raw_q;
@@ -668,14 +646,7 @@ pub fn image_pair(
             }
             Accs::Q15(v)
         } else {
-            let mut v = Vec::with_capacity(bricks.len());
-            let mut rest: &mut [Complex32] = &mut img;
-            for b in &bricks {
-                let (head, tail) = rest.split_at_mut(b.bp.voxels());
-                v.push(AccF32::tile(&b.bp, 0, head)?);
-                rest = tail;
-            }
-            Accs::F32(v)
+            Accs::F32(brick_accs_f32(&bricks, &mut img, |b| &b.bp)?)
         };
         for (f, &tx) in tx_fine.iter().enumerate() {
             src.frame(f, tx, &rx_fine, &mut prof)?;
@@ -685,50 +656,10 @@ pub fn image_pair(
                 power_of(&prof, &mut iprof);
             }
             let t = Instant::now();
-            accs_i
-                .par_iter_mut()
-                .zip(bricks.par_iter())
-                .try_for_each(|(acc, b)| {
-                    b.bp_inc.push_snapshot(
-                        acc,
-                        &Snapshot {
-                            tx: b.bp.grid().local(tx),
-                            rx: &b.rx_local,
-                            profiles: &iprof,
-                            profile_len: geo.n_bins,
-                        },
-                    )
-                })?;
-            accs_m
-                .par_iter_mut()
-                .zip(bricks.par_iter())
-                .try_for_each(|(acc, b)| {
-                    b.bp.push_snapshot(
-                        acc,
-                        &Snapshot {
-                            tx: b.bp.grid().local(tx),
-                            rx: &b.rx_local,
-                            profiles: &mprof,
-                            profile_len: geo.n_bins,
-                        },
-                    )
-                })?;
+            push_bricks_f32(&mut accs_i, &bricks, |b| &b.bp_inc, tx, &iprof, geo.n_bins)?;
+            push_bricks_f32(&mut accs_m, &bricks, |b| &b.bp, tx, &mprof, geo.n_bins)?;
             match &mut accs {
-                Accs::F32(v) => {
-                    v.par_iter_mut()
-                        .zip(bricks.par_iter())
-                        .try_for_each(|(acc, b)| {
-                            b.bp.push_snapshot(
-                                acc,
-                                &Snapshot {
-                                    tx: b.bp.grid().local(tx),
-                                    rx: &b.rx_local,
-                                    profiles: &prof,
-                                    profile_len: geo.n_bins,
-                                },
-                            )
-                        })?
-                }
+                Accs::F32(v) => push_bricks_f32(v, &bricks, |b| &b.bp, tx, &prof, geo.n_bins)?,
                 Accs::Q15(v) => {
                     prof_q
                         .par_chunks_mut(geo.n_bins)
@@ -809,6 +740,51 @@ pub fn image_pair(
         intensity,
         stats,
     })
+}
+
+/// `f32` accumulators of every brick, on the back-projector `bp_of(brick)`, over consecutive
+/// slices of `img` (none when `img` is empty: a pass that is not run).
+fn brick_accs_f32<'a>(
+    bricks: &'a [Brick],
+    img: &'a mut [Complex32],
+    bp_of: fn(&Brick) -> &Backprojector,
+) -> Result<Vec<AccF32<'a>>, has_dsp::DspError> {
+    let mut v = Vec::new();
+    if img.is_empty() {
+        return Ok(v);
+    }
+    let mut rest = img;
+    for b in bricks {
+        let (head, tail) = rest.split_at_mut(b.bp.voxels());
+        v.push(AccF32::tile(bp_of(b), 0, head)?);
+        rest = tail;
+    }
+    Ok(v)
+}
+
+/// Pushes one snapshot (transmit position `tx`, `profiles` of every receive element) into every
+/// brick's accumulator, bricks in parallel.
+fn push_bricks_f32(
+    accs: &mut [AccF32<'_>],
+    bricks: &[Brick],
+    bp_of: fn(&Brick) -> &Backprojector,
+    tx: Vec3,
+    profiles: &[Complex32],
+    profile_len: usize,
+) -> Result<(), has_dsp::DspError> {
+    accs.par_iter_mut()
+        .zip(bricks.par_iter())
+        .try_for_each(|(acc, b)| {
+            bp_of(b).push_snapshot(
+                acc,
+                &Snapshot {
+                    tx: b.bp.grid().local(tx),
+                    rx: &b.rx_local,
+                    profiles,
+                    profile_len,
+                },
+            )
+        })
 }
 
 /// `out[i] = |p[i]|²` (as a real-valued complex profile, for the incoherent pass).
