@@ -44,6 +44,10 @@ pub struct MeshArgs {
     /// trimming); 0 keeps every component.
     #[arg(long, default_value_t = 0.0)]
     pub min_component: f32,
+    /// Keep only faces within this distance (m) of an input point: surface farther from every
+    /// sample is extrapolation (`reconstruct` uses c/B plus half a voxel diagonal).
+    #[arg(long)]
+    pub support_distance: Option<f32>,
     /// Keep only faces inside this box, lower corner `x y z` in metres (with `--clip-max`):
     /// typically the imaging region, outside which the closed surface is invented.
     #[arg(
@@ -239,6 +243,12 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
             .context("--clip-min/--clip-max")?,
         _ => mesh,
     };
+    let mesh = match a.support_distance {
+        Some(d) => mesh
+            .clip_to_support(&points, d)
+            .context("--support-distance")?,
+        None => mesh,
+    };
     let mesh = if a.min_component > 0.0 {
         mesh.remove_small_components(a.min_component)
             .context("--min-component")?
@@ -248,8 +258,11 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
     let poisson_s = t1.elapsed().as_secs_f64();
     let top = mesh.topology();
     // Densities follow the vertices only for the untrimmed mesh.
-    let density = (rule.is_none() && a.min_component == 0.0 && a.clip_min.is_none())
-        .then_some(out.vertex_density.as_slice());
+    let density = (rule.is_none()
+        && a.min_component == 0.0
+        && a.clip_min.is_none()
+        && a.support_distance.is_none())
+    .then_some(out.vertex_density.as_slice());
     write_mesh(&mesh, &a.out, a.ply.as_deref(), density)?;
     println!(
         "mesh: {} points → {} vertices, {} faces, cell {:.3} m, grid {:?}, watertight {}, manifold {}",

@@ -180,6 +180,7 @@ fn mesh_stage(
         },
         trim: Some(Trim::MedianFraction(args.mesh_trim_median)),
         clip_box: Some(region),
+        support_distance_m: Some(sc.support_distance_m()),
         min_component_fraction: Some(MESH_MIN_COMPONENT_FRACTION),
         ..ReconstructParams::default()
     };
@@ -250,6 +251,7 @@ fn mesh_stage(
     m["depth"] = json!(depth);
     m["cell_m"] = json!(rec.poisson.cell_m);
     m["clip_box"] = json!([region.0.to_array(), region.1.to_array()]);
+    m["support_distance_m"] = json!(params.support_distance_m);
     m["min_component_fraction"] = json!(MESH_MIN_COMPONENT_FRACTION);
     m["visibility_filter"] = if args.visibility_filter {
         json!({"margin_m": margin, "removed_points": ghosts, "input_points": result.fused.points.len()})
@@ -564,10 +566,11 @@ fn report_md(r: &serde_json::Value, cmp: &CloudComparison) -> Result<String> {
         )?;
         writeln!(
             s,
-            "\nMesh: screened Poisson depth {} (cell {:.3} m), trimmed below {:.2} × the median support density, clipped to the imaging region, components under {:.2} of the largest area dropped; {:.1} s. Sampled at {} points per m² for the metrics.",
+            "\nMesh: screened Poisson depth {} (cell {:.3} m), trimmed below {:.2} × the median support density, clipped to the imaging region and to {:.2} m (c/B + half a voxel diagonal) of the fused points, components under {:.2} of the largest area dropped; {:.1} s. Sampled at {} points per m² for the metrics.",
             m["depth"],
             g("cell_m"),
             g("trim_median_fraction"),
+            g("support_distance_m"),
             g("min_component_fraction"),
             g("seconds"),
             m["sample_density_per_m2"]

@@ -41,7 +41,10 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
     );
     assert!(mesh_f > f15, "mesh F-score(1.5 m) {mesh_f} vs cloud {f15}");
     assert!(mesh_cd <= 1.1, "mesh √CD {mesh_cd} m");
-    assert!(mesh_f >= 92.5, "mesh F-score(1.5 m) {mesh_f}");
+    // Clipping the mesh to c/B + half a voxel diagonal of the fused points (issue 13) costs this
+    // tight box 1.0 point (measured 92.4, the interpolated roof valleys no pair observes) and
+    // gains 15–33 points on the site-wide regions of fixtures/suite; the bound follows.
+    assert!(mesh_f >= 92.0, "mesh F-score(1.5 m) {mesh_f}");
     assert_eq!(mesh["manifold"].as_bool(), Some(true));
     common::assert_outputs(
         &out,

@@ -272,6 +272,42 @@ impl TriMesh {
         Ok(out)
     }
 
+    /// Keeps only the faces whose centroid lies within `max_m` of some point of `support` (the
+    /// cloud the surface was reconstructed from): surface farther than that from every sample is
+    /// the solver's extrapolation, not something that was measured.
+    ///
+    /// # Errors
+    /// `max_m` not finite and positive (field `"support_distance_m"`); a bad `support` cloud
+    /// ([`crate::knn::PointIndex::new`]).
+    pub fn clip_to_support(&self, support: &[Vec3], max_m: f32) -> Result<TriMesh, GeometryError> {
+        if !(max_m.is_finite() && max_m > 0.0) {
+            return Err(GeometryError::BadParameter {
+                field: "support_distance_m",
+                value: max_m as f64,
+                expected: "finite and > 0 m",
+            });
+        }
+        let index = crate::knn::PointIndex::new("support", support)?;
+        let centroids: Vec<Vec3> = self
+            .faces
+            .iter()
+            .map(|f| f.iter().map(|&v| self.vertices[v as usize]).sum::<Vec3>() / 3.0)
+            .collect();
+        let d2 = index.nearest_sq_many(&centroids);
+        let mut out = TriMesh {
+            vertices: self.vertices.clone(),
+            faces: self
+                .faces
+                .iter()
+                .zip(&d2)
+                .filter(|(_, &d)| d <= max_m * max_m)
+                .map(|(f, _)| *f)
+                .collect(),
+        };
+        out.remove_unused_vertices();
+        Ok(out)
+    }
+
     /// Drops vertices not used by any face and renumbers the faces (kept vertices keep their
     /// relative order).
     pub fn remove_unused_vertices(&mut self) {
@@ -310,6 +346,9 @@ pub struct ReconstructParams {
     /// After trimming, keep only faces inside this box (lower, upper corner, metres; see
     /// [`TriMesh::clip_to_box`]); `None` keeps everything.
     pub clip_box: Option<(Vec3, Vec3)>,
+    /// After clipping, keep only faces within this distance (m) of an input point
+    /// ([`TriMesh::clip_to_support`]); `None` keeps everything.
+    pub support_distance_m: Option<f32>,
     /// After trimming and clipping, drop connected components smaller than this fraction of the largest
     /// one's area ([`TriMesh::remove_small_components`]); `None` keeps them all.
     pub min_component_fraction: Option<f32>,
@@ -322,6 +361,7 @@ impl Default for ReconstructParams {
             poisson: PoissonParams::default(),
             trim: None,
             clip_box: None,
+            support_distance_m: None,
             min_component_fraction: None,
         }
     }
@@ -362,6 +402,10 @@ pub fn reconstruct(
         Some((lo, hi)) => mesh.clip_to_box(lo, hi)?,
         None => mesh,
     };
+    let mesh = match params.support_distance_m {
+        Some(d) => mesh.clip_to_support(points, d)?,
+        None => mesh,
+    };
     let mesh = match params.min_component_fraction {
         Some(f) => mesh.remove_small_components(f)?,
         None => mesh,
@@ -377,6 +421,26 @@ pub fn reconstruct(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn surface_away_from_every_sample_is_clipped_and_supported_surface_kept() {
+        let m = tetra();
+        // Support at the first face's centroid only: a radius just above zero keeps that face.
+        let c0 = m.faces[0]
+            .iter()
+            .map(|&v| m.vertices[v as usize])
+            .sum::<Vec3>()
+            / 3.0;
+        let kept = m.clip_to_support(&[c0], 1e-4).unwrap();
+        assert_eq!(kept.faces.len(), 1);
+        // A radius beyond the mesh's extent keeps every face; bad radii are errors.
+        assert_eq!(
+            m.clip_to_support(&[c0], 100.0).unwrap().faces.len(),
+            m.faces.len()
+        );
+        assert!(m.clip_to_support(&[c0], 0.0).is_err());
+        assert!(m.clip_to_support(&[c0], f32::NAN).is_err());
+    }
 
     fn tetra() -> TriMesh {
         TriMesh {
