@@ -45,7 +45,7 @@ pub struct MeshArgs {
     #[arg(long, default_value_t = 0.0)]
     pub min_component: f32,
     /// Keep only faces within this distance (m) of an input point: surface farther from every
-    /// sample is extrapolation (`reconstruct` uses c/B plus half a voxel diagonal).
+    /// sample is extrapolation (`reconstruct` uses half the coarsest resolution cell of its pairs).
     #[arg(long)]
     pub support_distance: Option<f32>,
     /// Keep only faces inside this box, lower corner `x y z` in metres (with `--clip-max`):

@@ -180,7 +180,7 @@ fn mesh_stage(
         },
         trim: Some(Trim::MedianFraction(args.mesh_trim_median)),
         clip_box: Some(region),
-        support_distance_m: Some(sc.support_distance_m()),
+        support_distance_m: Some(imaging::support_distance_m(sc, &result.plans)),
         min_component_fraction: Some(MESH_MIN_COMPONENT_FRACTION),
         ..ReconstructParams::default()
     };
@@ -566,7 +566,7 @@ fn report_md(r: &serde_json::Value, cmp: &CloudComparison) -> Result<String> {
         )?;
         writeln!(
             s,
-            "\nMesh: screened Poisson depth {} (cell {:.3} m), trimmed below {:.2} × the median support density, clipped to the imaging region and to {:.2} m (c/B + half a voxel diagonal) of the fused points, components under {:.2} of the largest area dropped; {:.1} s. Sampled at {} points per m² for the metrics.",
+            "\nMesh: screened Poisson depth {} (cell {:.3} m), trimmed below {:.2} × the median support density, clipped to the imaging region and to {:.2} m (half the coarsest pair resolution cell) of the fused points, components under {:.2} of the largest area dropped; {:.1} s. Sampled at {} points per m² for the metrics.",
             m["depth"],
             g("cell_m"),
             g("trim_median_fraction"),

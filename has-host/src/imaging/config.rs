@@ -697,16 +697,6 @@ impl ImagingScenario {
         }
     }
 
-    /// How far from every imaged point a reconstructed surface is still supported by the
-    /// imaging, metres: one bistatic path resolution cell `c/B` plus half a fine voxel's diagonal
-    /// (where a point of the cell may have been placed). Surface beyond it is the mesher's
-    /// extrapolation (e.g. a Poisson surface closing an open cloud across a site).
-    pub fn support_distance_m(&self) -> f32 {
-        let path_cell = has_dsp::ofdm::range_bin_spacing_m(self.radar.bandwidth_mhz * 1e6, 1)
-            .unwrap_or(f64::INFINITY) as f32;
-        path_cell + 0.5 * 3f32.sqrt() * self.imaging.voxel_m
-    }
-
     /// The imaging region's bounding box `(min, max)`.
     pub fn region(&self) -> (Vec3, Vec3) {
         (

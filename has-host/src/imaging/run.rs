@@ -511,6 +511,31 @@ pub fn observable_truth(sc: &ImagingScenario, world: &World, plans: &[PairPlan])
         .collect()
 }
 
+/// How far from every imaged point a reconstructed surface is still supported by the imaging,
+/// metres: half the coarsest theoretical resolution among the imaged pairs at the region's centre
+/// (range, virtual-aperture and both real-aperture cross-ranges,
+/// [`super::sensors::pair_resolution_m`]). A fused point stands for a resolution cell, so the
+/// surface that produced it lies within half the cell's largest extent; mesh farther than that
+/// from every point is the mesher's extrapolation (e.g. a Poisson surface closing an open cloud
+/// across a site).
+pub fn support_distance_m(sc: &ImagingScenario, plans: &[PairPlan]) -> f32 {
+    let (lo, hi) = sc.region();
+    let centre = (lo + hi) * 0.5;
+    plans
+        .iter()
+        .map(|p| {
+            let (r, xv, xh, xz) = pair_resolution_m(
+                centre,
+                &sc.array(p.bs),
+                &sc.aperture(p.aperture, p.positions),
+                sc.wavelength_m() as f32,
+                (sc.radar.bandwidth_mhz * 1e6) as f32,
+            );
+            0.5 * r.max(xv).max(xh).max(xz)
+        })
+        .fold(0.0, f32::max)
+}
+
 /// Percentage of `true` flags (of truth points, e.g. from [`observable_truth`]); 0 for none.
 pub fn share_pct(flags: &[bool]) -> f64 {
     100.0 * flags.iter().filter(|&&f| f).count() as f64 / flags.len().max(1) as f64
