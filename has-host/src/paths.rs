@@ -10,6 +10,8 @@
 //!    reconstructed (Poisson) mesh becomes one facet whose plane is the least-squares fit of its
 //!    triangles (area-weighted second moment, smallest principal axis), with a
 //!    `thickness` (largest vertex distance from that plane) used as the tolerance of its checks.
+//!    A near-vertical facet whose plane is out of plumb by less than
+//!    [`TracerConfig::vertical_tol_m`] over its height is made vertical (a twin's unresolved tilt).
 //! 2. **Candidates, once per transmitter** ([`Tracer::prepare_tx`]). Shoot-and-bounce rays
 //!    (`sbr_rays` directions on a Fibonacci sphere, specular bounces off the facet planes up to
 //!    `max_order`) record every facet sequence they meet; each sequence gets its chain of
@@ -96,6 +98,13 @@ pub struct TracerConfig {
     pub facet_angle_tol_rad: f64,
     /// Facet clustering: largest distance (m) of a triangle vertex from its facet's plane.
     pub facet_dist_tol_m: f64,
+    /// A facet within 30° of vertical whose plane moves its top by less than this (m) from
+    /// plumb over its height is made vertical (its normal's z component dropped, the plane
+    /// refitted through its centroid). For a reconstructed twin this is the resolution the
+    /// imaging had across the wall: a tilt below it was never observed (a Poisson mesh rounds a
+    /// wall into its roof and its least-squares plane leans by a fraction of a degree, which
+    /// doubles in a reflected path's elevation). 0 (default): off.
+    pub vertical_tol_m: f64,
 }
 
 impl Default for TracerConfig {
@@ -114,6 +123,7 @@ impl Default for TracerConfig {
             candidates: CandidateMode::Sbr { rays: 200_000 },
             facet_angle_tol_rad: 15f64.to_radians(),
             facet_dist_tol_m: 0.15,
+            vertical_tol_m: 0.0,
         }
     }
 }
@@ -254,8 +264,14 @@ fn tri_vertices(scene: &Scene, t: u32) -> [DVec3; 3] {
 }
 
 impl Facets {
-    /// Groups the scene's triangles into planar facets (see module docs).
-    pub fn build(scene: &Scene, angle_tol_rad: f64, dist_tol_m: f64) -> Facets {
+    /// Groups the scene's triangles into planar facets (see module docs); facets within
+    /// `vertical_tol_m` of plumb are made vertical ([`TracerConfig::vertical_tol_m`]).
+    pub fn build(
+        scene: &Scene,
+        angle_tol_rad: f64,
+        dist_tol_m: f64,
+        vertical_tol_m: f64,
+    ) -> Facets {
         let n_tri = scene.triangles.len();
         let verts: Vec<[DVec3; 3]> = (0..n_tri as u32).map(|t| tri_vertices(scene, t)).collect();
         let mut normals = Vec::with_capacity(n_tri);
@@ -360,15 +376,26 @@ impl Facets {
                 }
             }
             let centroid = csum / asum;
-            let normal = fitted_normal(&members, &verts, &areas, centroid, nsum.normalize());
-            let offset = normal.dot(centroid);
+            let mut normal = fitted_normal(&members, &verts, &areas, centroid, nsum.normalize());
             let mut lo = DVec3::splat(f64::INFINITY);
             let mut hi = DVec3::splat(f64::NEG_INFINITY);
-            let mut thickness: f64 = 0.0;
             for &m in &members {
                 for v in verts[m as usize] {
                     lo = lo.min(v);
                     hi = hi.max(v);
+                }
+            }
+            // Out of plumb over the facet's height: h·tan(tilt), tilt = asin|n_z|.
+            let nz = normal.z.abs();
+            let horizontal = (1.0 - nz * nz).max(0.0).sqrt();
+            if vertical_tol_m > 0.0 && nz < 0.5 && (hi.z - lo.z) * nz < vertical_tol_m * horizontal
+            {
+                normal = DVec3::new(normal.x, normal.y, 0.0).normalize();
+            }
+            let offset = normal.dot(centroid);
+            let mut thickness: f64 = 0.0;
+            for &m in &members {
+                for v in verts[m as usize] {
                     thickness = thickness.max((normal.dot(v) - offset).abs());
                 }
             }
@@ -598,6 +625,7 @@ impl<'a> Tracer<'a> {
         for (what, v) in [
             ("facet_angle_tol_rad", config.facet_angle_tol_rad),
             ("facet_dist_tol_m", config.facet_dist_tol_m),
+            ("vertical_tol_m", config.vertical_tol_m),
         ] {
             if !(v.is_finite() && v >= 0.0) {
                 return Err(PathError::OutOfRange {
@@ -607,7 +635,12 @@ impl<'a> Tracer<'a> {
                 });
             }
         }
-        let facets = Facets::build(scene, config.facet_angle_tol_rad, config.facet_dist_tol_m);
+        let facets = Facets::build(
+            scene,
+            config.facet_angle_tol_rad,
+            config.facet_dist_tol_m,
+            config.vertical_tol_m,
+        );
         let eta = scene
             .objects
             .iter()
@@ -1060,6 +1093,60 @@ mod tests {
     fn basis(n: DVec3) -> [DVec3; 3] {
         let u = any_perpendicular(n);
         [u, n.cross(u), n]
+    }
+
+    /// A 10 m × 8 m wall in the y–z plane at x = 0, its top leaning `tilt_deg` toward +x, and a
+    /// 10 m × 10 m flat roof at z = 8 m, as facets with `vertical_tol_m`.
+    fn wall_and_roof_facets(tilt_deg: f64, vertical_tol_m: f64) -> Vec<Facet> {
+        let t = (tilt_deg.to_radians().tan() * 8.0) as f32;
+        let (a, b, c, d) = (
+            Vec3::new(0.0, 0.0, 0.0),
+            Vec3::new(0.0, 10.0, 0.0),
+            Vec3::new(t, 10.0, 8.0),
+            Vec3::new(t, 0.0, 8.0),
+        );
+        let r = |x: f32, y: f32| Vec3::new(x, y, 8.0);
+        let scene = Scene::new(vec![
+            crate::scene::Object {
+                name: "wall".into(),
+                material: crate::material::Material::Concrete,
+                triangles: vec![[a, b, c], [a, c, d]],
+            },
+            crate::scene::Object {
+                name: "roof".into(),
+                material: crate::material::Material::Concrete,
+                triangles: vec![
+                    [r(1.0, 0.0), r(11.0, 0.0), r(11.0, 10.0)],
+                    [r(1.0, 0.0), r(11.0, 10.0), r(1.0, 10.0)],
+                ],
+            },
+        ])
+        .unwrap();
+        Facets::build(&scene, 15f64.to_radians(), 0.15, vertical_tol_m).facets
+    }
+
+    #[test]
+    fn a_wall_tilt_below_the_resolution_is_made_plumb_and_a_resolved_one_is_kept() {
+        // 0.5° over 8 m moves the top 7 cm: below a 0.375 m range cell, so plumb.
+        let f = wall_and_roof_facets(0.5, 0.375);
+        assert_eq!(f.len(), 2);
+        let wall = f.iter().find(|f| f.object == 0).unwrap();
+        assert!(wall.normal.z.abs() < 1e-12, "{:?}", wall.normal);
+        assert!((wall.normal.x.abs() - 1.0).abs() < 1e-12);
+        // The plane goes through the centroid (x = 3.5 cm) and the tilt is the thickness.
+        assert!((wall.offset.abs() - 0.0349).abs() < 1e-3, "{}", wall.offset);
+        assert!(wall.thickness > 0.03 && wall.thickness < 0.04);
+        // The roof is not a wall: untouched.
+        let roof = f.iter().find(|f| f.object == 1).unwrap();
+        assert!((roof.normal.z.abs() - 1.0).abs() < 1e-12);
+        // Off: the fitted tilt stays.
+        let f = wall_and_roof_facets(0.5, 0.0);
+        let wall = f.iter().find(|f| f.object == 0).unwrap();
+        assert!((wall.normal.z.abs() - 0.5f64.to_radians().sin()).abs() < 1e-6);
+        // 5° moves the top 0.70 m: resolved, kept.
+        let f = wall_and_roof_facets(5.0, 0.375);
+        let wall = f.iter().find(|f| f.object == 0).unwrap();
+        assert!((wall.normal.z.abs() - 5f64.to_radians().sin()).abs() < 1e-6);
     }
 
     #[test]

@@ -246,9 +246,15 @@ impl ChannelSpec {
     }
 
     /// The tracer settings of both scenes at carrier `frequency_hz`: order, SBR rays and facet
-    /// tolerances from this spec, the rest the tracer's defaults (line of sight on, vertical
-    /// polarisation).
-    pub fn tracer_config(&self, frequency_hz: f64) -> crate::paths::TracerConfig {
+    /// tolerances from this spec, facets within `resolution_m` of plumb made vertical
+    /// ([`crate::paths::TracerConfig::vertical_tol_m`]; the twin's imaging range resolution: a
+    /// wall's tilt below it was not observed), the rest the tracer's defaults (line of sight on,
+    /// vertical polarisation).
+    pub fn tracer_config(
+        &self,
+        frequency_hz: f64,
+        resolution_m: f64,
+    ) -> crate::paths::TracerConfig {
         crate::paths::TracerConfig {
             frequency_hz,
             max_order: self.max_order,
@@ -257,6 +263,7 @@ impl ChannelSpec {
             },
             facet_angle_tol_rad: self.facet_angle_deg.to_radians(),
             facet_dist_tol_m: self.facet_dist_m,
+            vertical_tol_m: resolution_m,
             ..crate::paths::TracerConfig::default()
         }
     }

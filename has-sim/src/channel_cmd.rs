@@ -224,7 +224,7 @@ pub fn run(args: ChannelArgs) -> Result<()> {
     let twin = Scene::new(twin_objs).with_context(|| format!("twin {}", twin_path.display()))?;
     let ues = spec.ue_positions(&truth)?;
     let bs = spec.bs();
-    let config = spec.tracer_config(fc);
+    let config = spec.tracer_config(fc, sc.range_resolution_m()?);
     let codebook = DftCodebook::new(
         spec.codebook_rows,
         spec.codebook_cols,

@@ -176,6 +176,12 @@ pub struct ImagingSpec {
     /// The same for the coarse pass's mask (permissive: it only decides where to look).
     #[serde(default = "default_mask_pfa")]
     pub mask_false_alarm_probability: f64,
+    /// With `detection = "clutter"`: a voxel must also be focused by each of the pair's two
+    /// apertures on its own — the receive array in every snapshot and the transmit positions
+    /// across snapshots — at the same false-alarm probability (`imaging::detection`). Rejects a
+    /// sidelobe of one aperture that the other focuses.
+    #[serde(default = "default_true")]
+    pub coherence_test: bool,
     /// Keep only voxels that are local maxima along the bistatic range direction.
     #[serde(default = "default_true")]
     pub local_max: bool,
@@ -667,6 +673,18 @@ impl ImagingScenario {
                 "rectangular, hann or taylor",
             )),
         }
+    }
+
+    /// The finest range resolution of any pair, metres: `c/(2B)`, a path resolution of `c/B`
+    /// ([`has_dsp::ofdm::range_bin_spacing_m`] without zero padding) halved where the bistatic
+    /// range grows at its fastest (transmitter and receiver on the same side).
+    ///
+    /// # Errors
+    /// [`ScenarioError`] naming `radar.bandwidth_mhz` if it is not finite and positive.
+    pub fn range_resolution_m(&self) -> Result<f64, ScenarioError> {
+        has_dsp::ofdm::range_bin_spacing_m(self.radar.bandwidth_mhz * 1e6, 1)
+            .map(|d| 0.5 * d)
+            .map_err(|_| invalid("radar.bandwidth_mhz", self.radar.bandwidth_mhz, "positive"))
     }
 
     /// Carrier wavelength, metres.
