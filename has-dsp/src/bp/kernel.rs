@@ -80,24 +80,38 @@ impl Geo {
     }
 }
 
+/// `acc += Σ_rx` of the snapshot; with `power` non-empty (same length as `acc`) also
+/// `power += |Σ_rx …|²`, the snapshot's own image power, summed separately so that `acc` gets the
+/// same arithmetic, bit for bit, either way.
 pub(super) fn run_f32(
     bp: &Backprojector,
     first: usize,
     acc: &mut [Complex<f32>],
+    power: &mut [f32],
     snap: &Snapshot<'_, Complex<f32>>,
 ) {
+    macro_rules! run {
+        ($l:literal, $p:literal) => {
+            if power.is_empty() {
+                run_f32_impl::<$l, $p, false>(bp, first, acc, power, snap)
+            } else {
+                run_f32_impl::<$l, $p, true>(bp, first, acc, power, snap)
+            }
+        };
+    }
     match (bp.cfg.interp, bp.cfg.phase) {
-        (Interp::Linear, PhaseEval::Poly) => run_f32_impl::<true, true>(bp, first, acc, snap),
-        (Interp::Linear, PhaseEval::Libm) => run_f32_impl::<true, false>(bp, first, acc, snap),
-        (Interp::Nearest, PhaseEval::Poly) => run_f32_impl::<false, true>(bp, first, acc, snap),
-        (Interp::Nearest, PhaseEval::Libm) => run_f32_impl::<false, false>(bp, first, acc, snap),
+        (Interp::Linear, PhaseEval::Poly) => run!(true, true),
+        (Interp::Linear, PhaseEval::Libm) => run!(true, false),
+        (Interp::Nearest, PhaseEval::Poly) => run!(false, true),
+        (Interp::Nearest, PhaseEval::Libm) => run!(false, false),
     }
 }
 
-fn run_f32_impl<const LINEAR: bool, const POLY: bool>(
+fn run_f32_impl<const LINEAR: bool, const POLY: bool, const POWER: bool>(
     bp: &Backprojector,
     first: usize,
     acc: &mut [Complex<f32>],
+    power: &mut [f32],
     snap: &Snapshot<'_, Complex<f32>>,
 ) {
     let (r0, inv_dr) = (bp.cfg.r0_m, bp.inv_dr);
@@ -111,11 +125,17 @@ fn run_f32_impl<const LINEAR: bool, const POLY: bool>(
     let (mut s0, mut s1) = ([zero; CHUNK], [zero; CHUNK]);
     // The chunk's accumulators as struct of arrays, kept across the snapshot's elements.
     let (mut a_re, mut a_im) = ([0f32; CHUNK], [0f32; CHUNK]);
+    // With POWER: the snapshot's own sum over its elements.
+    let (mut j_re, mut j_im) = ([0f32; CHUNK], [0f32; CHUNK]);
     for (ci, acc) in acc.chunks_mut(CHUNK).enumerate() {
         let n = acc.len();
         geo.load(&bp.cfg.grid, first + ci * CHUNK, n, snap.tx);
         for ((re, im), z) in a_re.iter_mut().zip(a_im.iter_mut()).zip(acc.iter()) {
             (*re, *im) = (z.re, z.im);
+        }
+        if POWER {
+            j_re[..n].fill(0.0);
+            j_im[..n].fill(0.0);
         }
         for (a, profile) in snap.rx.iter().zip(snap.profiles.chunks_exact(len)) {
             let Some(last) = profile.len().checked_sub(1) else {
@@ -155,6 +175,7 @@ fn run_f32_impl<const LINEAR: bool, const POLY: bool>(
             }
             // Pass B2 (vectorises): interpolate, rotate, accumulate.
             let (a_re, a_im) = (&mut a_re[..n], &mut a_im[..n]);
+            let (j_re, j_im) = (&mut j_re[..n], &mut j_im[..n]);
             let (s0, s1, w, c_re, c_im) = (&s0[..n], &s1[..n], &w[..n], &c_re[..n], &c_im[..n]);
             for k in 0..n {
                 let s = if LINEAR {
@@ -162,12 +183,26 @@ fn run_f32_impl<const LINEAR: bool, const POLY: bool>(
                 } else {
                     s0[k]
                 };
-                a_re[k] += s.re * c_re[k] - s.im * c_im[k];
-                a_im[k] += s.re * c_im[k] + s.im * c_re[k];
+                let (re, im) = (
+                    s.re * c_re[k] - s.im * c_im[k],
+                    s.re * c_im[k] + s.im * c_re[k],
+                );
+                a_re[k] += re;
+                a_im[k] += im;
+                if POWER {
+                    j_re[k] += re;
+                    j_im[k] += im;
+                }
             }
         }
         for ((z, &re), &im) in acc.iter_mut().zip(&a_re[..n]).zip(&a_im[..n]) {
             *z = Complex::new(re, im);
+        }
+        if POWER {
+            let p = &mut power[ci * CHUNK..ci * CHUNK + n];
+            for ((p, &re), &im) in p.iter_mut().zip(&j_re[..n]).zip(&j_im[..n]) {
+                *p += re * re + im * im;
+            }
         }
     }
 }

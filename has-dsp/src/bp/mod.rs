@@ -568,7 +568,38 @@ impl Backprojector {
     ) -> Result<(), DspError> {
         snap.validate()?;
         self.check_acc_f32(acc)?;
-        kernel::run_f32(self, acc.first, acc.data, snap);
+        kernel::run_f32(self, acc.first, acc.data, &mut [], snap);
+        acc.pushes += snap.rx.len() as u64;
+        Ok(())
+    }
+
+    /// [`Self::push_snapshot`] that also adds, per voxel of the tile, the power of the
+    /// snapshot's own image `|Σ_rx s(r_V + r_R) · e^{+j2π(r_V + r_R)/λ}|²` to `power` (one `f32`
+    /// per voxel of `acc`, same order). Summed over snapshots this is the image focused across
+    /// the receive elements but not across the snapshots: against `|I|²` and the incoherent
+    /// power it separates the coherence of the two apertures (e.g. a sidelobe of the receive
+    /// array that the transmit aperture focuses). `acc` gets exactly what
+    /// [`Self::push_snapshot`] gives it.
+    ///
+    /// # Errors
+    /// As [`Self::push_snapshot`], plus [`DspError::LengthMismatch`] if `power` and the tile
+    /// differ in length.
+    pub fn push_snapshot_with_power(
+        &self,
+        acc: &mut AccF32<'_>,
+        power: &mut [f32],
+        snap: &Snapshot<'_, Complex<f32>>,
+    ) -> Result<(), DspError> {
+        snap.validate()?;
+        self.check_acc_f32(acc)?;
+        if power.len() != acc.data.len() {
+            return Err(DspError::LengthMismatch {
+                what: "snapshot power buffer",
+                expected: acc.data.len(),
+                got: power.len(),
+            });
+        }
+        kernel::run_f32(self, acc.first, acc.data, power, snap);
         acc.pushes += snap.rx.len() as u64;
         Ok(())
     }

@@ -214,6 +214,85 @@ fn snapshot_single_pushes_and_tiles_agree_bit_for_bit() {
     assert_eq!(whole, tiled);
 }
 
+/// `push_snapshot_with_power` leaves the image exactly as `push_snapshot` does, and its power
+/// buffer is, voxel by voxel, the sum over snapshots of each snapshot's own image power (each
+/// snapshot imaged alone into a fresh accumulator), to f32 rounding.
+#[test]
+fn snapshot_power_is_the_sum_of_each_snapshots_own_image_power() {
+    let bp = Backprojector::new(config(Interp::Linear, PhaseEval::Poly)).unwrap();
+    let rx = rx_positions();
+    let targets = [([3, 3, 3], 1.0), ([1, 6, 2], 0.4)];
+    let n = bp.voxels();
+    let (mut plain, mut with, mut power) = (
+        vec![Complex::new(0.0, 0.0); n],
+        vec![Complex::new(0.0, 0.0); n],
+        vec![0f32; n],
+    );
+    let mut expected = vec![0f64; n];
+    {
+        let mut a = AccF32::new(&bp, &mut plain).unwrap();
+        // Uneven tiles for the power path: the buffer follows its tile.
+        let mut tiles: Vec<(AccF32<'_>, &mut [f32])> = Vec::new();
+        let (mut rest, mut prest): (&mut [Complex<f32>], &mut [f32]) = (&mut with, &mut power);
+        let mut first = 0;
+        while !rest.is_empty() {
+            let len = rest.len().min(77);
+            let (h, t) = rest.split_at_mut(len);
+            let (ph, pt) = prest.split_at_mut(len);
+            tiles.push((AccF32::tile(&bp, first, h).unwrap(), ph));
+            (rest, prest, first) = (t, pt, first + len);
+        }
+        for tx in tx_positions() {
+            let profiles = snapshot_profiles(&bp, tx, &rx, &targets);
+            let snap = Snapshot {
+                tx,
+                rx: &rx,
+                profiles: &profiles,
+                profile_len: BINS,
+            };
+            bp.push_snapshot(&mut a, &snap).unwrap();
+            for (acc, p) in tiles.iter_mut() {
+                bp.push_snapshot_with_power(acc, p, &snap).unwrap();
+            }
+            let mut alone = vec![Complex::new(0.0, 0.0); n];
+            let mut acc = AccF32::new(&bp, &mut alone).unwrap();
+            bp.push_snapshot(&mut acc, &snap).unwrap();
+            for (e, z) in expected.iter_mut().zip(&alone) {
+                *e += z.norm_sqr() as f64;
+            }
+        }
+    }
+    assert_eq!(plain, with);
+    let peak = expected.iter().copied().fold(0.0, f64::max);
+    assert!(peak > 0.0);
+    for (p, e) in power.iter().zip(&expected) {
+        assert!((*p as f64 - e).abs() <= 1e-5 * peak, "{p} vs {e}");
+    }
+    // A point scatterer is focused across the receive array in every snapshot: at its voxel
+    // the snapshot power is the image power over the number of snapshots (|Σ_k J_k|² = K·Σ|J_k|²
+    // for equal J_k), within the phase drift of the target across the aperture.
+    let i = index(&bp, [3, 3, 3]);
+    let k = tx_positions().len() as f64;
+    let ratio = with[i].norm_sqr() as f64 / power[i] as f64;
+    assert!(
+        ratio > 0.9 * k && ratio <= k * (1.0 + 1e-4),
+        "{ratio} vs {k}"
+    );
+    let mut bad = vec![0f32; 3];
+    let mut acc = AccF32::new(&bp, &mut plain).unwrap();
+    let profiles = snapshot_profiles(&bp, tx_positions()[0], &rx, &targets);
+    let snap = Snapshot {
+        tx: tx_positions()[0],
+        rx: &rx,
+        profiles: &profiles,
+        profile_len: BINS,
+    };
+    assert!(matches!(
+        bp.push_snapshot_with_power(&mut acc, &mut bad, &snap),
+        Err(DspError::LengthMismatch { .. })
+    ));
+}
+
 /// Sum over the test aperture of `|s_p(voxel)|` per voxel, in f64 (linear interpolation of
 /// `|profile|`): the worst-case scale of per-update relative errors at each voxel.
 fn magnitude_sums(bp: &Backprojector, rx: &[Vec3], targets: &[([usize; 3], f64)]) -> Vec<f64> {

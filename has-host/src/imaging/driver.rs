@@ -39,7 +39,7 @@ use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
 use super::config::{Detection, ImagingScenario};
-use super::detection::{effective_looks, local_mean, window_radius};
+use super::detection::{coherence_factor, detected, effective_looks, local_mean, window_radius};
 use super::run::World;
 use super::sensors::{pair_resolution_m, PlanarArray, VirtualAperture};
 use crate::echo::{EchoConfig, EchoError, EchoSynth, Noise, ScattererSet, VisibilityCache};
@@ -178,6 +178,22 @@ fn pair_geometry(sc: &ImagingScenario, plan: &PairPlan) -> PairGeometry {
     }
 }
 
+/// Bytes of the data's frames that the receive-coherence pass holds for `plan` (every thinned
+/// element × transmit position × profile bin, 8 B each; 0 without the test).
+pub fn held_frames_bytes(sc: &ImagingScenario, plan: &PairPlan) -> u64 {
+    let im = &sc.imaging;
+    if im.detection != Detection::Clutter || !im.coherence_test {
+        return 0;
+    }
+    let geo = pair_geometry(sc, plan);
+    let step = im.element_step.max(1);
+    let rx = geo.array.rows.div_ceil(step) as u64 * geo.array.cols.div_ceil(step) as u64;
+    let tx = plan.positions.div_ceil(im.position_step.max(1)) as u64;
+    rx.saturating_mul(tx)
+        .saturating_mul(geo.n_bins as u64)
+        .saturating_mul(8)
+}
+
 /// Adds complex white Gaussian noise of power `var` to `rows` (one row per element), seeded per
 /// (seed, frame, element) so the result does not depend on thread scheduling.
 fn add_noise(rows: &mut [Complex32], row_len: usize, var: f64, seed: u64, frame: usize) {
@@ -297,6 +313,8 @@ struct Brick {
     /// The same grid for the incoherent pass.
     bp_inc: Backprojector,
     rx_local: Vec<Vec3>,
+    /// The transmit positions, grid-local (the receive-coherence pass swaps the roles).
+    tx_local: Vec<Vec3>,
     offset: usize,
     /// First fine voxel of the brick on the region's lattice.
     start: [usize; 3],
@@ -345,6 +363,8 @@ pub fn image_pair(
     echo_cfg.kernel_oversample = 64;
     let synth = EchoSynth::new(echo_cfg.clone())?;
     let clutter_ref = im.detection == Detection::Clutter;
+    // The snapshot-power image for the coherence test (f32 data path only).
+    let coherence = clutter_ref && im.coherence_test;
     let raw = if opts.raw_ofdm {
         let symbols = crate::echo::qpsk_symbols(n_sc, im.seed);
         let mut reference = vec![Complex32::new(0.0, 0.0); n_sc];
@@ -421,7 +441,8 @@ pub fn image_pair(
     let tx_coarse = geo
         .aperture
         .positions_jittered(im.position_step * im.coarse_step, thin_seed ^ 3);
-    let total = (tx_fine.len() + tx_coarse.len()) as u64;
+    let total =
+        (tx_fine.len() + tx_coarse.len()) as u64 + if coherence { rx_fine.len() as u64 } else { 0 };
     let mut done = 0u64;
     let mut stats = PairStats {
         frames: tx_fine.len(),
@@ -489,16 +510,19 @@ pub fn image_pair(
             accs_i
                 .par_iter_mut()
                 .try_for_each(|acc| cbp_inc.push_snapshot(acc, &snap))?;
-            for (accs, profiles) in [(&mut accs, &prof), (&mut accs_m, &mprof)] {
-                let snap = Snapshot {
-                    tx: cgrid.local(tx),
-                    rx: &rx_c_local,
-                    profiles,
-                    profile_len: geo.n_bins,
-                };
-                accs.par_iter_mut()
-                    .try_for_each(|acc| cbp.push_snapshot(acc, &snap))?;
-            }
+            let snap_m = Snapshot {
+                profiles: &mprof,
+                ..snap
+            };
+            accs_m
+                .par_iter_mut()
+                .try_for_each(|acc| cbp.push_snapshot(acc, &snap_m))?;
+            let snap = Snapshot {
+                profiles: &prof,
+                ..snap
+            };
+            accs.par_iter_mut()
+                .try_for_each(|acc| cbp.push_snapshot(acc, &snap))?;
             stats.bp_s += t.elapsed().as_secs_f64();
             done += 1;
             progress(done, total);
@@ -521,12 +545,10 @@ pub fn image_pair(
         let (radius, alpha) = cfar(cv, im.mask_false_alarm_probability);
         let pm: Vec<f32> = cimg_m.iter().map(|z| z.norm_sqr()).collect();
         let c = local_mean(&pm, cdims, radius);
-        cimg.iter()
-            .zip(&c)
-            .zip(&cimg_i)
-            .enumerate()
-            .map(|(i, ((z, &c), inc))| {
-                z.norm_sqr() >= alpha * (c + inc.re.max(0.0)) && coarse_in_region(i)
+        (0..cimg.len())
+            .map(|i| {
+                detected(cimg[i].norm_sqr(), c[i], cimg_i[i].re, None, alpha, 0.0)
+                    && coarse_in_region(i)
             })
             .collect()
     } else {
@@ -612,6 +634,11 @@ pub fn image_pair(
                 let n = bp.voxels();
                 bricks.push(Brick {
                     rx_local: rx_fine.iter().map(|&p| grid.local(p)).collect(),
+                    tx_local: if coherence {
+                        tx_fine.iter().map(|&p| grid.local(p)).collect()
+                    } else {
+                        Vec::new()
+                    },
                     bp,
                     bp_inc,
                     offset,
@@ -631,6 +658,12 @@ pub fn image_pair(
     let mut qimg = vec![Complex32::new(0.0, 0.0); if opts.fixed_point { offset } else { 0 }];
     let mut img_m = vec![Complex32::new(0.0, 0.0); if clutter_ref { offset } else { 0 }];
     let mut img_i = img_m.clone();
+    // With the coherence test the data's frames are kept, element-major, for the
+    // receive-coherence pass; in f32 that pass is the data image itself.
+    let (nt, nb) = (tx_fine.len(), geo.n_bins);
+    let mut frames = vec![Complex32::new(0.0, 0.0); if coherence { nt * prof.len() } else { 0 }];
+    let mut img_r = vec![0f32; if coherence { offset } else { 0 }];
+    let data_per_frame = !coherence || opts.fixed_point;
     let mut mprof = vec![Complex32::new(0.0, 0.0); if clutter_ref { prof.len() } else { 0 }];
     let mut iprof = mprof.clone();
     {
@@ -645,8 +678,10 @@ pub fn image_pair(
                 rest = tail;
             }
             Accs::Q15(v)
-        } else {
+        } else if data_per_frame {
             Accs::F32(brick_accs_f32(&bricks, &mut img, |b| &b.bp)?)
+        } else {
+            Accs::F32(Vec::new())
         };
         for (f, &tx) in tx_fine.iter().enumerate() {
             src.frame(f, tx, &rx_fine, &mut prof)?;
@@ -655,11 +690,35 @@ pub fn image_pair(
                 m.frame(f, tx, &rx_fine, &mut mprof)?;
                 power_of(&prof, &mut iprof);
             }
+            if coherence {
+                for (e, p) in prof.chunks_exact(nb).enumerate() {
+                    frames[(e * nt + f) * nb..(e * nt + f + 1) * nb].copy_from_slice(p);
+                }
+            }
             let t = Instant::now();
-            push_bricks_f32(&mut accs_i, &bricks, |b| &b.bp_inc, tx, &iprof, geo.n_bins)?;
-            push_bricks_f32(&mut accs_m, &bricks, |b| &b.bp, tx, &mprof, geo.n_bins)?;
+            let no_power: &mut [&mut [f32]] = &mut [];
+            push_bricks_f32(
+                &mut accs_i,
+                no_power,
+                &bricks,
+                |b| &b.bp_inc,
+                tx,
+                &iprof,
+                geo.n_bins,
+            )?;
+            push_bricks_f32(
+                &mut accs_m,
+                no_power,
+                &bricks,
+                |b| &b.bp,
+                tx,
+                &mprof,
+                geo.n_bins,
+            )?;
             match &mut accs {
-                Accs::F32(v) => push_bricks_f32(v, &bricks, |b| &b.bp, tx, &prof, geo.n_bins)?,
+                Accs::F32(v) => {
+                    push_bricks_f32(v, no_power, &bricks, |b| &b.bp, tx, &prof, geo.n_bins)?
+                }
                 Accs::Q15(v) => {
                     prof_q
                         .par_chunks_mut(geo.n_bins)
@@ -695,6 +754,45 @@ pub fn image_pair(
             }
         }
     }
+    if coherence {
+        // The receive-coherence pass: by reciprocity (the bistatic range is symmetric in its two
+        // ends) one receive element with every transmit position is a snapshot of has-dsp, and
+        // its own image power, summed over the elements, is R(v) = Σ_rx |Σ_tx …|².
+        let mut scratch = vec![Complex32::new(0.0, 0.0); if opts.fixed_point { offset } else { 0 }];
+        let target: &mut [Complex32] = if opts.fixed_point {
+            &mut scratch
+        } else {
+            &mut img
+        };
+        let mut accs = brick_accs_f32(&bricks, target, |b| &b.bp)?;
+        let mut pows = brick_slices(&bricks, &mut img_r);
+        for (e, &rx) in rx_fine.iter().enumerate() {
+            let profiles = &frames[e * nt * nb..(e + 1) * nt * nb];
+            let t = Instant::now();
+            accs.par_iter_mut()
+                .zip(pows.par_iter_mut())
+                .zip(bricks.par_iter())
+                .try_for_each(|((acc, r), b)| {
+                    b.bp.push_snapshot_with_power(
+                        acc,
+                        r,
+                        &Snapshot {
+                            tx: b.bp.grid().local(rx),
+                            rx: &b.tx_local,
+                            profiles,
+                            profile_len: nb,
+                        },
+                    )
+                })?;
+            stats.bp_s += t.elapsed().as_secs_f64();
+            done += 1;
+            progress(done, total);
+        }
+        if opts.fixed_point {
+            stats.backprojections += (offset * rx_fine.len() * tx_fine.len()) as f64;
+        }
+    }
+    drop(frames);
     if opts.fixed_point {
         img = qimg;
     }
@@ -706,6 +804,7 @@ pub fn image_pair(
         // The predicted bare-terrain power's local mean on the region lattice (NaN where no brick
         // was imaged), then the CFAR test voxel by voxel.
         let (radius, alpha) = cfar(v, im.false_alarm_probability);
+        let beta = coherence_factor(im.false_alarm_probability);
         let mut pm = vec![f32::NAN; stats.region_voxels];
         let gidx = |b: &Brick, i: usize| {
             let d = b.bp.grid().dims;
@@ -722,8 +821,16 @@ pub fn image_pair(
         let mut det = vec![false; offset];
         for b in &bricks {
             for i in 0..b.bp.voxels() {
-                let h0 = c[gidx(b, i)] + img_i[b.offset + i].re.max(0.0);
-                det[b.offset + i] = img[b.offset + i].norm_sqr() >= alpha * h0;
+                let j = b.offset + i;
+                let q = img_r.get(j).copied();
+                det[j] = detected(
+                    img[j].norm_sqr(),
+                    c[gidx(b, i)],
+                    img_i[j].re,
+                    q,
+                    alpha,
+                    beta,
+                );
             }
         }
         det
@@ -734,6 +841,7 @@ pub fn image_pair(
     };
     drop(img_m);
     drop(img_i);
+    drop(img_r);
     let (points, intensity) = extract_points(sc, &bricks, &img, &detected, &geo, im.local_max);
     Ok(PairImage {
         points,
@@ -762,29 +870,53 @@ fn brick_accs_f32<'a>(
     Ok(v)
 }
 
+/// Consecutive slices of `buf`, one per brick (none when `buf` is empty).
+fn brick_slices<'a>(bricks: &[Brick], buf: &'a mut [f32]) -> Vec<&'a mut [f32]> {
+    let mut v = Vec::new();
+    if buf.is_empty() {
+        return v;
+    }
+    let mut rest = buf;
+    for b in bricks {
+        let (head, tail) = rest.split_at_mut(b.bp.voxels());
+        v.push(head);
+        rest = tail;
+    }
+    v
+}
+
 /// Pushes one snapshot (transmit position `tx`, `profiles` of every receive element) into every
-/// brick's accumulator, bricks in parallel.
+/// brick's accumulator, bricks in parallel; with `power` (one slice per brick) also the
+/// snapshot's own image power ([`Backprojector::push_snapshot_with_power`]).
+#[allow(clippy::too_many_arguments)]
 fn push_bricks_f32(
     accs: &mut [AccF32<'_>],
+    power: &mut [&mut [f32]],
     bricks: &[Brick],
     bp_of: fn(&Brick) -> &Backprojector,
     tx: Vec3,
     profiles: &[Complex32],
     profile_len: usize,
 ) -> Result<(), has_dsp::DspError> {
-    accs.par_iter_mut()
-        .zip(bricks.par_iter())
-        .try_for_each(|(acc, b)| {
-            bp_of(b).push_snapshot(
-                acc,
-                &Snapshot {
-                    tx: b.bp.grid().local(tx),
-                    rx: &b.rx_local,
-                    profiles,
-                    profile_len,
-                },
-            )
-        })
+    fn snap<'a>(b: &'a Brick, tx: Vec3, p: &'a [Complex32], len: usize) -> Snapshot<'a, Complex32> {
+        Snapshot {
+            tx: b.bp.grid().local(tx),
+            rx: &b.rx_local,
+            profiles: p,
+            profile_len: len,
+        }
+    }
+    let snap = |b| snap(b, tx, profiles, profile_len);
+    if power.is_empty() {
+        accs.par_iter_mut()
+            .zip(bricks.par_iter())
+            .try_for_each(|(acc, b)| bp_of(b).push_snapshot(acc, &snap(b)))
+    } else {
+        accs.par_iter_mut()
+            .zip(power.par_iter_mut())
+            .zip(bricks.par_iter())
+            .try_for_each(|((acc, q), b)| bp_of(b).push_snapshot_with_power(acc, q, &snap(b)))
+    }
 }
 
 /// `out[i] = |p[i]|²` (as a real-valued complex profile, for the incoherent pass).

@@ -107,14 +107,23 @@ pub enum RunError {
 /// most 2 × 12 × 1024 / 512 = 48 B).
 pub const IMAGING_BYTES_PER_VOXEL: usize = 3 * 8 + 16 + 8 + 4 * 4 + 48;
 
-/// Fine voxels of the region's bounding box and the worst-case bytes one pair's imaging needs.
+/// Fine voxels of the region's bounding box and the worst-case bytes one pair's imaging needs:
+/// [`IMAGING_BYTES_PER_VOXEL`] per voxel plus the data frames the receive-coherence pass holds
+/// for the largest pairing ([`super::driver::held_frames_bytes`]).
 pub fn memory_estimate(sc: &ImagingScenario) -> (usize, u64) {
     let (lo, hi) = sc.region();
     let d = ((hi - lo) / sc.imaging.voxel_m).floor() + Vec3::ONE;
     let voxels = (d.x as f64 * d.y as f64 * d.z as f64).min(usize::MAX as f64) as usize;
+    let frames = every_pairing(sc)
+        .iter()
+        .map(|p| super::driver::held_frames_bytes(sc, p))
+        .max()
+        .unwrap_or(0);
     (
         voxels,
-        (voxels as u64).saturating_mul(IMAGING_BYTES_PER_VOXEL as u64),
+        (voxels as u64)
+            .saturating_mul(IMAGING_BYTES_PER_VOXEL as u64)
+            .saturating_add(frames),
     )
 }
 
@@ -608,9 +617,14 @@ mod tests {
 
     #[test]
     fn the_bundled_region_fits() {
-        let sc = factory();
+        let mut sc = factory();
         let (voxels, need) = memory_estimate(&sc);
-        assert_eq!(need, voxels as u64 * IMAGING_BYTES_PER_VOXEL as u64);
+        let per_voxel = voxels as u64 * IMAGING_BYTES_PER_VOXEL as u64;
+        // The receive-coherence pass holds one pair's frames: counted, and only with the test.
+        let frames = need - per_voxel;
+        assert!(frames > 0);
+        sc.imaging.coherence_test = false;
+        assert_eq!(memory_estimate(&sc).1, per_voxel);
         assert!(check_memory(&sc).is_ok());
     }
 }
