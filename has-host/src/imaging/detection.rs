@@ -70,10 +70,20 @@ pub fn window_radius(cell_m: f32, voxel_m: f32) -> usize {
     ((cell_m / voxel_m).round() as usize).max(1)
 }
 
+/// The reference of every voxel: the mean of the known voxels around it and how many there were.
+#[derive(Clone, Debug)]
+pub struct LocalMean {
+    /// Mean power (NaN where no known voxel is in the window).
+    pub mean: Vec<f32>,
+    /// Known voxels in the window (the window is cut by the lattice's faces and by unknown
+    /// voxels: fewer looks, a larger factor, [`CfarFactors`]).
+    pub count: Vec<f32>,
+}
+
 /// The mean of `power` over the cube of half-width `radius` voxels around every voxel of a
 /// `dims` lattice, counting only known voxels (`power` finite; unknown ones are NaN). A voxel
 /// with no known neighbour gets NaN. Separable running sums: `O(voxels)` whatever the radius.
-pub fn local_mean(power: &[f32], dims: [usize; 3], radius: usize) -> Vec<f32> {
+pub fn local_mean(power: &[f32], dims: [usize; 3], radius: usize) -> LocalMean {
     let n = dims[0] * dims[1] * dims[2];
     debug_assert_eq!(power.len(), n);
     let mut sum: Vec<f32> = power
@@ -111,10 +121,45 @@ pub fn local_mean(power: &[f32], dims: [usize; 3], radius: usize) -> Vec<f32> {
             }
         }
     }
-    sum.iter()
-        .zip(&cnt)
-        .map(|(&s, &c)| if c > 0.0 { s / c } else { f32::NAN })
-        .collect()
+    for (s, &c) in sum.iter_mut().zip(&cnt) {
+        *s = if c > 0.0 { *s / c } else { f32::NAN };
+    }
+    LocalMean {
+        mean: sum,
+        count: cnt,
+    }
+}
+
+/// Mean-level factors `α` of a reference window of half-width `radius` voxels, by how many of
+/// its voxels are known: a window cut by the region's faces (the lowest layer above the ground,
+/// the region's sides and corners) or by unimaged voxels averages fewer looks, so its mean
+/// fluctuates more and needs a larger factor for the same `pfa` (a corner's window holds 1/8 of
+/// the voxels: at `pfa = 10⁻⁴` and ~12 looks in the full window, α = 14.0 in the full window,
+/// 45 in a corner).
+#[derive(Clone, Debug)]
+pub struct CfarFactors {
+    alpha: Vec<f32>,
+}
+
+impl CfarFactors {
+    /// Factors at `pfa` for every count of known voxels of edge `voxel_m` over cells of
+    /// `cell_m3` ([`effective_looks`]).
+    pub fn new(pfa: f64, radius: usize, voxel_m: f32, cell_m3: f32) -> Self {
+        let n = (2 * radius + 1).pow(3);
+        let alpha = (0..=n)
+            .map(|k| {
+                let looks = effective_looks(k.max(1), voxel_m, cell_m3);
+                has_dsp::cfar::mean_level_factor(pfa, looks) as f32
+            })
+            .collect();
+        Self { alpha }
+    }
+
+    /// The factor for a window of `count` known voxels (clamped to the window's size).
+    pub fn alpha(&self, count: f32) -> f32 {
+        let k = (count.max(1.0) as usize).min(self.alpha.len() - 1);
+        self.alpha[k]
+    }
 }
 
 #[cfg(test)]
@@ -125,7 +170,7 @@ mod tests {
     fn local_mean_of_a_constant_field_is_that_constant_even_at_the_edges() {
         let dims = [5, 4, 3];
         let p = vec![2.5f32; 60];
-        let m = local_mean(&p, dims, 2);
+        let m = local_mean(&p, dims, 2).mean;
         assert!(m.iter().all(|&x| (x - 2.5).abs() < 1e-6));
     }
 
@@ -143,7 +188,7 @@ mod tests {
             })
             .collect();
         let r = 1usize;
-        let m = local_mean(&p, dims, r);
+        let LocalMean { mean: m, count } = local_mean(&p, dims, r);
         for z in 0..dims[2] {
             for y in 0..dims[1] {
                 for x in 0..dims[0] {
@@ -160,6 +205,7 @@ mod tests {
                         }
                     }
                     let got = m[x + dims[0] * (y + dims[1] * z)];
+                    assert_eq!(count[x + dims[0] * (y + dims[1] * z)], c as f32);
                     assert!(
                         (got as f64 - s / c as f64).abs() < 1e-4,
                         "{got} vs {}",
@@ -297,6 +343,37 @@ mod tests {
     fn coherence_factor_is_the_exponential_tail() {
         assert!((coherence_factor(1e-4) - 9.2103).abs() < 1e-3);
         assert!((coherence_factor((-1.0f64).exp()) - 1.0).abs() < 1e-6);
+    }
+
+    #[test]
+    fn a_cut_window_gets_the_factor_of_its_own_looks() {
+        // Exponential clutter of mean 1 referenced by the mean of the k known voxels of a window:
+        // with the factor for k looks it crosses at the design rate; with the full window's
+        // factor (what a face or corner voxel got before) far more often.
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Exp1};
+        let (pfa, radius, voxel, cell) = (1e-2, 1usize, 1.0f32, 1.0f32);
+        let f = CfarFactors::new(pfa, radius, voxel, cell);
+        assert!(f.alpha(8.0) > f.alpha(18.0) && f.alpha(18.0) > f.alpha(27.0));
+        assert_eq!(f.alpha(0.0), f.alpha(1.0));
+        assert_eq!(f.alpha(1e9), f.alpha(27.0));
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(5);
+        let trials = 200_000;
+        let (mut own, mut full) = (0, 0);
+        for _ in 0..trials {
+            // A corner voxel: 8 of the 27 window voxels known, independent looks.
+            let reference: f32 = (0..8)
+                .map(|_| -> f32 { Exp1.sample(&mut rng) })
+                .sum::<f32>()
+                / 8.0;
+            let cut: f32 = Exp1.sample(&mut rng);
+            own += (cut >= f.alpha(8.0) * reference) as usize;
+            full += (cut >= f.alpha(27.0) * reference) as usize;
+        }
+        let (own, full) = (own as f64 / trials as f64, full as f64 / trials as f64);
+        let sd = (pfa * (1.0 - pfa) / trials as f64).sqrt();
+        assert!((own - pfa).abs() < 5.0 * sd, "{own}");
+        assert!(full > 1.5 * pfa, "{full}");
     }
 
     #[test]

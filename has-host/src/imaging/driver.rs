@@ -39,7 +39,7 @@ use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
 use super::config::{Detection, ImagingScenario};
-use super::detection::{coherence_factor, detected, effective_looks, local_mean, window_radius};
+use super::detection::{coherence_factor, detected, local_mean, window_radius, CfarFactors};
 use super::run::World;
 use super::sensors::{pair_resolution_m, PlanarArray, VirtualAperture};
 use crate::echo::{EchoConfig, EchoError, EchoSynth, Noise, ScattererSet, VisibilityCache};
@@ -421,11 +421,9 @@ pub fn image_pair(
     );
     let cell_m3 = r_res * xv_res * xz_res;
     let cell_m = cell_m3.cbrt();
-    let cfar = |voxel_m: f32, pfa: f64| -> (usize, f32) {
+    let cfar = |voxel_m: f32, pfa: f64| -> (usize, CfarFactors) {
         let radius = window_radius(cell_m, voxel_m);
-        let n = (2 * radius + 1).pow(3);
-        let looks = effective_looks(n, voxel_m, cell_m3);
-        (radius, has_dsp::cfar::mean_level_factor(pfa, looks) as f32)
+        (radius, CfarFactors::new(pfa, radius, voxel_m, cell_m3))
     };
 
     // Thinned arrays and apertures are jittered, not periodic (no grating lobes; see
@@ -547,7 +545,8 @@ pub fn image_pair(
         let c = local_mean(&pm, cdims, radius);
         (0..cimg.len())
             .map(|i| {
-                detected(cimg[i].norm_sqr(), c[i], cimg_i[i].re, None, alpha, 0.0)
+                let a = alpha.alpha(c.count[i]);
+                detected(cimg[i].norm_sqr(), c.mean[i], cimg_i[i].re, None, a, 0.0)
                     && coarse_in_region(i)
             })
             .collect()
@@ -823,14 +822,9 @@ pub fn image_pair(
             for i in 0..b.bp.voxels() {
                 let j = b.offset + i;
                 let q = img_r.get(j).copied();
-                det[j] = detected(
-                    img[j].norm_sqr(),
-                    c[gidx(b, i)],
-                    img_i[j].re,
-                    q,
-                    alpha,
-                    beta,
-                );
+                let g = gidx(b, i);
+                let a = alpha.alpha(c.count[g]);
+                det[j] = detected(img[j].norm_sqr(), c.mean[g], img_i[j].re, q, a, beta);
             }
         }
         det
