@@ -212,8 +212,7 @@ pub fn run(args: ChannelArgs) -> Result<()> {
     let twin_s = t.elapsed().as_secs_f64();
 
     let truth_objects = with_material(sc.scene.build_objects()?, Material::Concrete);
-    let mesh = read_obj(&twin_path, Some(Material::Concrete))
-        .with_context(|| format!("--twin: {}", twin_path.display()))?;
+    let mesh = read_obj(&twin_path, Some(Material::Concrete)).context("--twin")?;
     let twin_objs = twin_objects(
         mesh,
         &truth_objects,

@@ -105,8 +105,7 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
                 (p, Some(t.elapsed().as_secs_f64()))
             }
         };
-        let twin = has_host::io::load_objects(&twin_path, None)
-            .with_context(|| format!("--twin {}", twin_path.display()))?;
+        let twin = has_host::io::load_objects(&twin_path, None).context("--twin")?;
         (twin_path.display().to_string(), twin, built)
     };
 

@@ -80,6 +80,30 @@ fn quick_channel_prediction_reports_errors_beams_and_plots() {
     let _ = std::fs::remove_dir_all(&out);
 }
 
+/// A twin that is not a mesh (here the scenario file itself) is an error naming the file, not
+/// a twin with no faces that blocks nothing and scores 0 errors.
+#[test]
+fn a_twin_that_is_not_a_mesh_fails_with_one_line() {
+    let dir = common::out_dir("channel-twin-not-mesh");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_has-sim"))
+        .args([
+            "channel",
+            "--quick",
+            "--twin",
+            "../fixtures/factory.toml",
+            "--out",
+        ])
+        .arg(&dir)
+        .output()
+        .expect("has-sim runs");
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(!out.status.success());
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("factory.toml: no faces"), "{err}");
+    assert!(!dir.join("report.json").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
+
 #[test]
 fn bad_channel_table_fails_with_one_line_naming_field_and_value() {
     let dir = common::out_dir("channel-bad");

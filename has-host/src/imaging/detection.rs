@@ -36,9 +36,10 @@
 //! The driver gets `R` at no extra back-projection: by reciprocity one element with every
 //! transmit position is a has-dsp snapshot, and
 //! [`has_dsp::bp::Backprojector::push_snapshot_with_power`] sums each snapshot's own power
-//! (the data's frames are held, element-major, for this). The reverse test (the array's focus, a
-//! sidelobe of the track) needs no separate statistic here: `P` already bounds it at the
-//! track's sidelobe level, the array's cell being far coarser than the track's.
+//! (the data's frames are held, element-major, for this). The transposed test — each
+//! snapshot's array-focused power against `P`, for a sidelobe of the track that the array
+//! focuses — was measured and dropped: the thinned array alone has too little gain against the
+//! power of a whole range bin, so walls failed it as well (suite office, quick: 238 points).
 //!
 //! Units: powers in the image's units (`|I|²`), lengths in metres, voxels indexed `x + nx·(y +
 //! ny·z)` on the fine (or coarse) lattice of the region's bounding box.

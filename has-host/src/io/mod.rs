@@ -79,6 +79,13 @@ pub enum MeshIoError {
         /// The accepted names.
         known: String,
     },
+    /// A mesh file with no faces: not a mesh (e.g. a TOML or PLY file read as OBJ, whose
+    /// unknown lines a reader skips; a point cloud), or an empty one.
+    #[error("{path}: no faces: not a mesh, or an empty one")]
+    NoFaces {
+        /// The file.
+        path: PathBuf,
+    },
     /// The file is valid but uses something this reader does not support.
     #[error("{path}: unsupported: {what}")]
     Unsupported {
@@ -208,6 +215,11 @@ pub fn load_objects(path: &Path, material: Option<Material>) -> Result<Vec<Objec
             })
         }
     };
+    if objects.iter().all(|o| o.triangles.is_empty()) {
+        return Err(MeshIoError::NoFaces {
+            path: path.to_path_buf(),
+        });
+    }
     if let Some(m) = material {
         for o in &mut objects {
             o.material = m;
@@ -282,6 +294,26 @@ mod tests {
         assert!(e.to_string().contains("boom"), "{e}");
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "new");
         assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn a_file_without_faces_is_not_a_mesh() {
+        let d = testutil::tmp_dir("no-faces");
+        // A point cloud (vertices only) as PLY, and a scenario file named .obj.
+        let ply = d.join("cloud.ply");
+        std::fs::write(
+            &ply,
+            "ply\nformat ascii 1.0\nelement vertex 2\nproperty float x\nproperty float y\n\
+             property float z\nend_header\n0 0 0\n1 0 0\n",
+        )
+        .unwrap();
+        let obj = d.join("scenario.obj");
+        std::fs::write(&obj, "[scene]\ndescription = \"factory\"\n").unwrap();
+        for p in [&ply, &obj] {
+            let e = load_objects(p, Some(Material::Concrete)).unwrap_err();
+            assert!(matches!(e, MeshIoError::NoFaces { .. }), "{e}");
+            assert!(e.to_string().contains("no faces"), "{e}");
+        }
     }
 
     #[test]

@@ -146,6 +146,11 @@ pub fn parse_obj(
             _ => {}
         }
     }
+    if groups.iter().all(|g| g.tris.is_empty()) {
+        return Err(MeshIoError::NoFaces {
+            path: path.to_path_buf(),
+        });
+    }
     let mut objects = Vec::with_capacity(groups.len());
     for g in &groups {
         let m = match material {
@@ -270,6 +275,18 @@ mod tests {
                 "unknown material 'Material.001'",
             ),
             ("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", None, "no usemtl"),
+            // A scenario file or a PLY read as OBJ: every line is skipped, nothing is a mesh.
+            (
+                "description = \"factory\"\n[scene]\n",
+                Some(Material::Concrete),
+                "bad.obj: no faces",
+            ),
+            (
+                "ply\nformat ascii 1.0\nelement vertex 1\nend_header\n0 0 0\n",
+                Some(Material::Concrete),
+                "no faces",
+            ),
+            ("", Some(Material::Concrete), "no faces"),
         ];
         for (text, m, want) in cases {
             let e = parse_obj(text, p, m).unwrap_err().to_string();
