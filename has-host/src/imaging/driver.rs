@@ -363,7 +363,8 @@ pub fn image_pair(
     echo_cfg.kernel_oversample = 64;
     let synth = EchoSynth::new(echo_cfg.clone())?;
     let clutter_ref = im.detection == Detection::Clutter;
-    // The snapshot-power image for the coherence test (f32 data path only).
+    // The receive-coherence test (module docs of `super::detection`): one more f32 pass in a
+    // fixed-point run, none in an f32 one.
     let coherence = clutter_ref && im.coherence_test;
     let raw = if opts.raw_ofdm {
         let symbols = crate::echo::qpsk_symbols(n_sc, im.seed);
