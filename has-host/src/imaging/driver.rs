@@ -696,29 +696,10 @@ pub fn image_pair(
                 }
             }
             let t = Instant::now();
-            let no_power: &mut [&mut [f32]] = &mut [];
-            push_bricks_f32(
-                &mut accs_i,
-                no_power,
-                &bricks,
-                |b| &b.bp_inc,
-                tx,
-                &iprof,
-                geo.n_bins,
-            )?;
-            push_bricks_f32(
-                &mut accs_m,
-                no_power,
-                &bricks,
-                |b| &b.bp,
-                tx,
-                &mprof,
-                geo.n_bins,
-            )?;
+            push_bricks_f32(&mut accs_i, &bricks, |b| &b.bp_inc, tx, &iprof, geo.n_bins)?;
+            push_bricks_f32(&mut accs_m, &bricks, |b| &b.bp, tx, &mprof, geo.n_bins)?;
             match &mut accs {
-                Accs::F32(v) => {
-                    push_bricks_f32(v, no_power, &bricks, |b| &b.bp, tx, &prof, geo.n_bins)?
-                }
+                Accs::F32(v) => push_bricks_f32(v, &bricks, |b| &b.bp, tx, &prof, geo.n_bins)?,
                 Accs::Q15(v) => {
                     prof_q
                         .par_chunks_mut(geo.n_bins)
@@ -881,37 +862,28 @@ fn brick_slices<'a>(bricks: &[Brick], buf: &'a mut [f32]) -> Vec<&'a mut [f32]> 
 }
 
 /// Pushes one snapshot (transmit position `tx`, `profiles` of every receive element) into every
-/// brick's accumulator, bricks in parallel; with `power` (one slice per brick) also the
-/// snapshot's own image power ([`Backprojector::push_snapshot_with_power`]).
-#[allow(clippy::too_many_arguments)]
+/// brick's accumulator, bricks in parallel.
 fn push_bricks_f32(
     accs: &mut [AccF32<'_>],
-    power: &mut [&mut [f32]],
     bricks: &[Brick],
     bp_of: fn(&Brick) -> &Backprojector,
     tx: Vec3,
     profiles: &[Complex32],
     profile_len: usize,
 ) -> Result<(), has_dsp::DspError> {
-    fn snap<'a>(b: &'a Brick, tx: Vec3, p: &'a [Complex32], len: usize) -> Snapshot<'a, Complex32> {
-        Snapshot {
-            tx: b.bp.grid().local(tx),
-            rx: &b.rx_local,
-            profiles: p,
-            profile_len: len,
-        }
-    }
-    let snap = |b| snap(b, tx, profiles, profile_len);
-    if power.is_empty() {
-        accs.par_iter_mut()
-            .zip(bricks.par_iter())
-            .try_for_each(|(acc, b)| bp_of(b).push_snapshot(acc, &snap(b)))
-    } else {
-        accs.par_iter_mut()
-            .zip(power.par_iter_mut())
-            .zip(bricks.par_iter())
-            .try_for_each(|((acc, q), b)| bp_of(b).push_snapshot_with_power(acc, q, &snap(b)))
-    }
+    accs.par_iter_mut()
+        .zip(bricks.par_iter())
+        .try_for_each(|(acc, b)| {
+            bp_of(b).push_snapshot(
+                acc,
+                &Snapshot {
+                    tx: b.bp.grid().local(tx),
+                    rx: &b.rx_local,
+                    profiles,
+                    profile_len,
+                },
+            )
+        })
 }
 
 /// `out[i] = |p[i]|²` (as a real-valued complex profile, for the incoherent pass).
