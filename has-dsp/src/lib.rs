@@ -9,7 +9,13 @@
 //! Conventions used throughout: SI units (metres, seconds, hertz), positions as [`glam::Vec3`] in
 //! metres, angles and phases in radians, complex baseband with the `e^{+j2πr/λ}` back-projection
 //! phase of the paper's eq. 1.
-#![cfg_attr(not(test), no_std)]
+//!
+//! Feature `std` (off by default; the host crates turn it on) changes how fast, never what: square
+//! roots in hardware (`sqrtps` instead of libm's scalar routine, both correctly rounded) and, on
+//! x86-64, the back-projection kernels dispatched at run time to an AVX2 build of the same code.
+//! Every path computes the same IEEE operations in the same order (no FMA contraction), so images
+//! are bit-identical with and without it.
+#![cfg_attr(not(any(test, feature = "std")), no_std)]
 
 pub mod bp;
 pub mod cfar;
@@ -17,6 +23,7 @@ pub mod eca;
 pub mod error;
 pub mod fft;
 pub mod fixed;
+mod float;
 pub mod geometry;
 pub mod linalg;
 pub mod ofdm;

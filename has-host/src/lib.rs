@@ -6,6 +6,7 @@
 //!
 //! Conventions: metres, seconds, hertz; positions `glam::Vec3` in one right-handed frame with z up;
 //! angles in radians inside, degrees only in reports.
+#![forbid(unsafe_code)]
 
 pub mod imaging;
 

@@ -3,6 +3,7 @@
 //! The binary is thin: it parses arguments, shows progress, writes files and prints summaries;
 //! the work lives in `has-host` and `has-dsp`. Every failure ends the process with exit code 1 and
 //! one readable line on stderr.
+#![forbid(unsafe_code)]
 
 use clap::{Parser, Subcommand};
 

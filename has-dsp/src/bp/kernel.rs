@@ -5,13 +5,20 @@
 //! range, the fractional bin and the rotor (no gathers, no branches: it vectorises); pass B reads
 //! the profile (a gather) and accumulates. Inputs were validated by the caller (`mod.rs`): finite
 //! positions, `profiles.len() == rx.len() · profile_len`, the tile inside the grid.
+//!
+//! With feature `std` on x86-64, [`run_f32`] and [`run_q15`] run the same code compiled for AVX2
+//! when the CPU has it (checked at run time, cached by std): 8-wide passes instead of 4-wide SSE2.
+//! The arithmetic is the same IEEE operations in the same order (Rust never contracts to FMA), so
+//! both builds give the same bits; `tests.rs` checks it.
 
 use super::{Backprojector, Interp, PhaseEval, Snapshot, VoxelGrid, CHUNK};
 use crate::fixed::CQ15;
+use crate::float;
 use crate::phase::{floor_f32, phase_index, rotor_f32, rotor_f32_libm, rotor_q15_index};
 use num_complex::Complex;
 
 /// Fills grid-local coordinates of voxels `start .. start + px.len()` (all slices equal length).
+#[inline(always)]
 fn fill_positions(grid: &VoxelGrid, start: usize, px: &mut [f32], py: &mut [f32], pz: &mut [f32]) {
     let [nx, ny, _] = grid.dims;
     let mut ix = start % nx;
@@ -52,17 +59,18 @@ impl Geo {
     }
 
     /// Coordinates and `r_V` of voxels `start .. start + n` (`n ≤ CHUNK`).
+    #[inline(always)]
     fn load(&mut self, grid: &VoxelGrid, start: usize, n: usize, tx: glam::Vec3) {
         let (px, py, pz) = (&mut self.px[..n], &mut self.py[..n], &mut self.pz[..n]);
         fill_positions(grid, start, px, py, pz);
         for (((rv, &x), &y), &z) in self.rv[..n].iter_mut().zip(&*px).zip(&*py).zip(&*pz) {
             let (dx, dy, dz) = (x - tx.x, y - tx.y, z - tx.z);
-            *rv = libm::sqrtf(dx * dx + dy * dy + dz * dz);
+            *rv = float::sqrt(dx * dx + dy * dy + dz * dz);
         }
     }
 
     /// Pass A of both paths: `r[k] = r_V + r_R` of voxel `k < n` for receiver `a`. Three loops so
-    /// that the squares and sums vectorise around the scalar `sqrtss` of `libm::sqrtf`.
+    /// that the squares and sums vectorise around the square root (scalar in libm, `sqrtps` with `std`).
     #[inline(always)]
     fn ranges(&self, n: usize, a: glam::Vec3, r: &mut [f32; CHUNK]) {
         let (px, py, pz, rv) = (&self.px[..n], &self.py[..n], &self.pz[..n], &self.rv[..n]);
@@ -72,7 +80,7 @@ impl Geo {
             r[k] = dx * dx + dy * dy + dz * dz;
         }
         for x in r.iter_mut() {
-            *x = libm::sqrtf(*x);
+            *x = float::sqrt(*x);
         }
         for (x, &v) in r.iter_mut().zip(rv) {
             *x += v;
@@ -84,6 +92,22 @@ impl Geo {
 /// `power += |Σ_rx …|²`, the snapshot's own image power, summed separately so that `acc` gets the
 /// same arithmetic, bit for bit, either way.
 pub(super) fn run_f32(
+    bp: &Backprojector,
+    first: usize,
+    acc: &mut [Complex<f32>],
+    power: &mut [f32],
+    snap: &Snapshot<'_, Complex<f32>>,
+) {
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    if avx2::run_f32(bp, first, acc, power, snap) {
+        return;
+    }
+    run_f32_portable(bp, first, acc, power, snap)
+}
+
+/// [`run_f32`] for the build's baseline target features.
+#[inline(always)]
+pub(super) fn run_f32_portable(
     bp: &Backprojector,
     first: usize,
     acc: &mut [Complex<f32>],
@@ -107,6 +131,7 @@ pub(super) fn run_f32(
     }
 }
 
+#[inline(always)]
 fn run_f32_impl<const LINEAR: bool, const POLY: bool, const POWER: bool>(
     bp: &Backprojector,
     first: usize,
@@ -244,6 +269,23 @@ pub(super) fn run_q15(
     snap: &Snapshot<'_, CQ15>,
     exponents: &[i32],
 ) {
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    if avx2::run_q15(bp, first, acc, acc_exp, snap, exponents) {
+        return;
+    }
+    run_q15_portable(bp, first, acc, acc_exp, snap, exponents)
+}
+
+/// [`run_q15`] for the build's baseline target features.
+#[inline(always)]
+pub(super) fn run_q15_portable(
+    bp: &Backprojector,
+    first: usize,
+    acc: &mut [Complex<i64>],
+    acc_exp: i32,
+    snap: &Snapshot<'_, CQ15>,
+    exponents: &[i32],
+) {
     if bp.cfg.interp == Interp::Linear {
         run_q15_impl::<true>(bp, first, acc, acc_exp, snap, exponents)
     } else {
@@ -251,6 +293,7 @@ pub(super) fn run_q15(
     }
 }
 
+#[inline(always)]
 fn run_q15_impl<const LINEAR: bool>(
     bp: &Backprojector,
     first: usize,
@@ -319,5 +362,73 @@ fn run_q15_impl<const LINEAR: bool>(
         for ((z, &re), &im) in acc.iter_mut().zip(&a_re[..n]).zip(&a_im[..n]) {
             *z = Complex::new(re, im);
         }
+    }
+}
+
+/// The kernels compiled for AVX2, entered only after the CPU was found to have it.
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[allow(unsafe_code)]
+pub(super) mod avx2 {
+    use super::{Backprojector, Complex, Snapshot, CQ15};
+
+    /// `true` if this CPU runs the AVX2 build (std caches the CPUID answer).
+    pub(in super::super) fn available() -> bool {
+        std::is_x86_feature_detected!("avx2")
+    }
+
+    /// [`super::run_f32`] in the AVX2 build; `false` (nothing done) if the CPU lacks AVX2.
+    pub(in super::super) fn run_f32(
+        bp: &Backprojector,
+        first: usize,
+        acc: &mut [Complex<f32>],
+        power: &mut [f32],
+        snap: &Snapshot<'_, Complex<f32>>,
+    ) -> bool {
+        if !available() {
+            return false;
+        }
+        // SAFETY: `run_f32_avx2` needs AVX2 and nothing else; the CPU has it (checked above).
+        unsafe { run_f32_avx2(bp, first, acc, power, snap) };
+        true
+    }
+
+    /// [`super::run_q15`] in the AVX2 build; `false` (nothing done) if the CPU lacks AVX2.
+    pub(in super::super) fn run_q15(
+        bp: &Backprojector,
+        first: usize,
+        acc: &mut [Complex<i64>],
+        acc_exp: i32,
+        snap: &Snapshot<'_, CQ15>,
+        exponents: &[i32],
+    ) -> bool {
+        if !available() {
+            return false;
+        }
+        // SAFETY: `run_q15_avx2` needs AVX2 and nothing else; the CPU has it (checked above).
+        unsafe { run_q15_avx2(bp, first, acc, acc_exp, snap, exponents) };
+        true
+    }
+
+    #[target_feature(enable = "avx2")]
+    fn run_f32_avx2(
+        bp: &Backprojector,
+        first: usize,
+        acc: &mut [Complex<f32>],
+        power: &mut [f32],
+        snap: &Snapshot<'_, Complex<f32>>,
+    ) {
+        super::run_f32_portable(bp, first, acc, power, snap)
+    }
+
+    #[target_feature(enable = "avx2")]
+    fn run_q15_avx2(
+        bp: &Backprojector,
+        first: usize,
+        acc: &mut [Complex<i64>],
+        acc_exp: i32,
+        snap: &Snapshot<'_, CQ15>,
+        exponents: &[i32],
+    ) {
+        super::run_q15_portable(bp, first, acc, acc_exp, snap, exponents)
     }
 }

@@ -214,6 +214,76 @@ fn snapshot_single_pushes_and_tiles_agree_bit_for_bit() {
     assert_eq!(whole, tiled);
 }
 
+/// The AVX2 build of the kernels (chosen at run time on x86-64 with feature `std`) computes the
+/// same bits as the baseline build, for every interpolation and phase path, f32 with and without
+/// the power sum, and Q15. Without AVX2 on this CPU there is nothing to compare: the test says so.
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[test]
+fn the_avx2_build_gives_the_baseline_build_bit_for_bit() {
+    if !kernel::avx2::available() {
+        std::println!("no AVX2 on this CPU: only the baseline build runs");
+        return;
+    }
+    let rx = rx_positions();
+    let targets = [([3, 3, 3], 1.0), ([1, 6, 2], 0.4), ([7, 0, 5], 0.2)];
+    for interp in [Interp::Linear, Interp::Nearest] {
+        for phase in [PhaseEval::Poly, PhaseEval::Libm] {
+            let bp = Backprojector::new(config(interp, phase)).unwrap();
+            let n = bp.voxels();
+            let zero = Complex::new(0.0f32, 0.0);
+            let (mut a, mut b) = (vec![zero; n], vec![zero; n]);
+            let (mut pa, mut pb) = (vec![0f32; n], vec![0f32; n]);
+            let (mut qa, mut qb) = (
+                vec![Complex::new(0i64, 0); n],
+                vec![Complex::new(0i64, 0); n],
+            );
+            let mut q = vec![CQ15::default(); rx.len() * BINS];
+            let mut exps = vec![0i32; rx.len()];
+            for tx in tx_positions() {
+                let profiles = snapshot_profiles(&bp, tx, &rx, &targets);
+                let snap = Snapshot {
+                    tx,
+                    rx: &rx,
+                    profiles: &profiles,
+                    profile_len: BINS,
+                };
+                assert!(kernel::avx2::run_f32(&bp, 0, &mut a, &mut [], &snap));
+                kernel::run_f32_portable(&bp, 0, &mut b, &mut [], &snap);
+                assert!(kernel::avx2::run_f32(&bp, 0, &mut a, &mut pa, &snap));
+                kernel::run_f32_portable(&bp, 0, &mut b, &mut pb, &snap);
+                for ((p, qp), e) in profiles
+                    .chunks_exact(BINS)
+                    .zip(q.chunks_exact_mut(BINS))
+                    .zip(exps.iter_mut())
+                {
+                    *e = quantize(p, qp);
+                }
+                let snap = Snapshot {
+                    tx,
+                    rx: &rx,
+                    profiles: &q,
+                    profile_len: BINS,
+                };
+                // Both builds get the same state exponent (the snapshot's largest).
+                let top = exps.iter().copied().max().unwrap();
+                assert!(kernel::avx2::run_q15(&bp, 0, &mut qa, top, &snap, &exps));
+                kernel::run_q15_portable(&bp, 0, &mut qb, top, &snap, &exps);
+            }
+            let bits = |v: &[Complex<f32>]| {
+                v.iter()
+                    .map(|z| (z.re.to_bits(), z.im.to_bits()))
+                    .collect::<Vec<_>>()
+            };
+            assert_eq!(bits(&a), bits(&b), "{interp:?} {phase:?}");
+            assert!(a.iter().any(|z| z.norm() > 0.0));
+            let pbits = |v: &[f32]| v.iter().map(|x| x.to_bits()).collect::<Vec<_>>();
+            assert_eq!(pbits(&pa), pbits(&pb), "{interp:?} {phase:?}");
+            assert_eq!(qa, qb, "{interp:?} {phase:?}");
+            assert!(qa.iter().any(|z| z.re != 0));
+        }
+    }
+}
+
 /// `push_snapshot_with_power` leaves the image exactly as `push_snapshot` does, and its power
 /// buffer is, voxel by voxel, the sum over snapshots of each snapshot's own image power (each
 /// snapshot imaged alone into a fresh accumulator), to f32 rounding.
