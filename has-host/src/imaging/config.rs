@@ -182,6 +182,12 @@ pub struct ImagingSpec {
     /// sidelobe of one aperture that the other focuses.
     #[serde(default = "default_true")]
     pub coherence_test: bool,
+    /// Drop a detected voxel whose grating-lobe alias for the pair's panel (element pitch above
+    /// λ/2: the same range and array phases, [`crate::imaging::sensors::PlanarArray::grating_aliases`])
+    /// holds a stronger echo in the same image: the pair cannot tell the two apart, and the weaker
+    /// is the lobe.
+    #[serde(default = "default_true")]
+    pub alias_test: bool,
     /// Keep only voxels that are local maxima along the bistatic range direction.
     #[serde(default = "default_true")]
     pub local_max: bool,

@@ -51,6 +51,30 @@ pub fn detected(i2: f32, c: f32, p: f32, r: Option<f32>, alpha: f32, beta: f32) 
     i2 >= alpha * (c + p.max(0.0)) && r.is_none_or(|r| i2 >= beta * r)
 }
 
+/// The grating-lobe test of one detected voxel of magnitude `a = |I|` (`imaging.alias_test`,
+/// [`crate::imaging::sensors::PlanarArray::grating_aliases`]): `true` when the same image holds a
+/// stronger echo within one voxel (edge `voxel_m`) of any of the voxel's `aliases` — the pair
+/// cannot tell the two apart, and the weaker is the lobe. `lookup` gives `|I|` at a position, or
+/// `None` where nothing was imaged (an alias there decides nothing). The voxel around an alias
+/// covers its spot: the alias is computed for the track's centre.
+pub fn alias_is_stronger(
+    aliases: &[glam::Vec3],
+    a: f32,
+    voxel_m: f32,
+    lookup: impl Fn(glam::Vec3) -> Option<f32>,
+) -> bool {
+    aliases.iter().any(|&q| {
+        (-1..=1).any(|i| {
+            (-1..=1).any(|j| {
+                (-1..=1).any(|k| {
+                    let o = glam::Vec3::new(i as f32, j as f32, k as f32) * voxel_m;
+                    lookup(q + o).is_some_and(|b| b > a)
+                })
+            })
+        })
+    })
+}
+
 /// The receive-coherence factor for a false-alarm probability: `ln(1/pfa)`, the threshold over
 /// its known mean that an exponential variable crosses with probability `pfa`.
 pub fn coherence_factor(pfa: f64) -> f32 {
@@ -338,6 +362,35 @@ mod tests {
         assert!(detected(i_g, 0.0, p, None, 10.0, beta));
         assert!(!detected(i_g, 0.0, p, Some(r_g), 10.0, beta));
         assert!(detected(i_t, 0.0, p, Some(r_t), 10.0, beta));
+    }
+
+    #[test]
+    fn a_voxel_weaker_than_its_grating_alias_is_the_lobe() {
+        use glam::Vec3;
+        let alias = Vec3::new(10.0, 0.0, 5.0);
+        // One strong echo half a voxel off the alias (the alias is approximate); nothing else.
+        let image = |p: Vec3| -> Option<f32> {
+            if p.distance(alias + Vec3::new(0.5, 0.0, 0.0)) < 0.1 {
+                Some(4.0)
+            } else if p.x.abs() < 100.0 {
+                Some(0.0)
+            } else {
+                None
+            }
+        };
+        assert!(alias_is_stronger(&[alias], 3.0, 0.5, image));
+        // The true echo is the stronger one: it stays.
+        assert!(!alias_is_stronger(&[alias], 5.0, 0.5, image));
+        // Equal strength cannot be told apart: both stay.
+        assert!(!alias_is_stronger(&[alias], 4.0, 0.5, image));
+        // No alias (a λ/2 panel), or an alias nowhere imaged: nothing to compare.
+        assert!(!alias_is_stronger(&[], 0.1, 0.5, image));
+        assert!(!alias_is_stronger(
+            &[Vec3::new(500.0, 0.0, 0.0)],
+            0.1,
+            0.5,
+            image
+        ));
     }
 
     #[test]

@@ -39,7 +39,9 @@ use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
 use super::config::{Detection, ImagingScenario};
-use super::detection::{coherence_factor, detected, local_mean, window_radius, CfarFactors};
+use super::detection::{
+    alias_is_stronger, coherence_factor, detected, local_mean, window_radius, CfarFactors,
+};
 use super::run::World;
 use super::sensors::{pair_resolution_m, PlanarArray, VirtualAperture};
 use crate::echo::{EchoConfig, EchoError, EchoSynth, Noise, ScattererSet, VisibilityCache};
@@ -818,7 +820,7 @@ pub fn image_pair(
     drop(img_m);
     drop(img_i);
     drop(img_r);
-    let (points, intensity) = extract_points(sc, &bricks, &img, &detected, &geo, im.local_max);
+    let (points, intensity) = extract_points(sc, &bricks, &img, &detected, &geo);
     Ok(PairImage {
         points,
         intensity,
@@ -910,16 +912,18 @@ fn dims_of(lo: Vec3, hi: Vec3, v: f32) -> [usize; 3] {
     [d.x as usize, d.y as usize, d.z as usize]
 }
 
-/// Thresholds the fine image and, optionally, keeps only voxels that are local maxima of `|I|`
-/// along the bistatic range gradient (the direction the pair resolves best).
+/// The detected voxels of the fine image, optionally only those that are local maxima of `|I|`
+/// along the bistatic range gradient (the direction the pair resolves best) and not weaker than
+/// anything at their grating-lobe aliases (`imaging.alias_test`).
 fn extract_points(
     sc: &ImagingScenario,
     bricks: &[Brick],
     img: &[Complex32],
     detected: &[bool],
     geo: &PairGeometry,
-    local_max: bool,
 ) -> (Vec<Vec3>, Vec<f32>) {
+    let (local_max, alias_test) = (sc.imaging.local_max, sc.imaging.alias_test);
+    let lambda = sc.wavelength_m() as f32;
     // Lookup of |I| at any world position imaged (nearest voxel; None outside active bricks).
     let v = bricks.first().map(|b| b.bp.grid().spacing.x).unwrap_or(1.0);
     let mut index = std::collections::HashMap::new();
@@ -971,6 +975,12 @@ fn extract_points(
                 let before = lookup(p - step).unwrap_or(0.0);
                 let after = lookup(p + step).unwrap_or(0.0);
                 if a < before || a < after {
+                    continue;
+                }
+            }
+            if alias_test {
+                let aliases = geo.array.grating_aliases(lambda, p, tx_c);
+                if alias_is_stronger(&aliases, a, v, lookup) {
                     continue;
                 }
             }

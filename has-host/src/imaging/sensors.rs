@@ -77,6 +77,62 @@ impl PlanarArray {
         out
     }
 
+    /// The grating-lobe aliases of scene point `p` for this panel and a transmitter at `tx`: the
+    /// points the panel cannot tell from `p`. Elements sit on a lattice of pitch `d` along each
+    /// panel axis (`spacing_m`; a thinned subset too), so the receive phases of a far-field
+    /// direction repeat when its direction sine along that axis moves by a whole `m·λ/d`: for
+    /// `d > λ/2` such a shifted direction can be visible (sines in [−1, 1], the same side of the
+    /// panel). Along it, the alias is the point at `p`'s bistatic range `|p − tx| + |p − centre|`
+    /// (`ρ = (r² − |c − tx|²) / (2(r + d̂·(c − tx)))` from the centre `c` along `d̂`): the same range
+    /// bin and the same array phases, so an echo from either focuses at both. Empty for a panel at
+    /// `λ/2` or finer, or for `p` at the centre.
+    pub fn grating_aliases(&self, wavelength_m: f32, p: Vec3, tx: Vec3) -> Vec<Vec3> {
+        let (dx, dz) = self.spacing_m();
+        let (t, n) = (self.tangent(), self.boresight());
+        let rel = p - self.centre;
+        let dist = rel.length();
+        if dist.is_nan() || dist <= 0.0 || wavelength_m.is_nan() || wavelength_m <= 0.0 {
+            return Vec::new();
+        }
+        let dir = rel / dist;
+        let (u, w, front) = (dir.dot(t), dir.z, dir.dot(n));
+        let r = dist + (p - tx).length();
+        let ct = self.centre - tx;
+        let orders = |pitch: f32| -> Vec<f32> {
+            let step = wavelength_m / pitch;
+            // |m·step| < 2: beyond that no shifted sine can stay in [−1, 1].
+            let m_max = if pitch > 0.5 * wavelength_m {
+                (2.0 / step).floor() as i32
+            } else {
+                0
+            };
+            (-m_max..=m_max).map(|m| m as f32 * step).collect()
+        };
+        let mut out = Vec::new();
+        for su in orders(dx) {
+            for sw in orders(dz) {
+                if su == 0.0 && sw == 0.0 {
+                    continue;
+                }
+                let (u2, w2) = (u + su, w + sw);
+                let q = 1.0 - u2 * u2 - w2 * w2;
+                if q <= 0.0 {
+                    continue;
+                }
+                let d = t * u2 + Vec3::Z * w2 + n * (q.sqrt() * front.signum());
+                let den = 2.0 * (r + d.dot(ct));
+                if den <= 0.0 {
+                    continue;
+                }
+                let rho = (r * r - ct.length_squared()) / den;
+                if rho > 0.0 {
+                    out.push(self.centre + d * rho);
+                }
+            }
+        }
+        out
+    }
+
     /// One element per `step × step` block of the panel, at a seeded random row and column
     /// within the block (jittered thinning): the same count as [`PlanarArray::elements`], but no
     /// periodic gaps, so no grating lobes — the replicas of a periodic `step`-thinned panel
@@ -225,6 +281,50 @@ mod tests {
         // The panel is vertical and perpendicular to the boresight.
         assert!((last - first).dot(a.boresight()).abs() < 1e-5);
         assert_eq!(a.elements(4).len(), 64);
+    }
+
+    /// `|Σ_k e^{j2π(|q − e_k| − |p − e_k|)/λ}| / N` over the panel's elements: 1 when the panel
+    /// receives an echo from `q` with the phases it expects from `p`.
+    fn array_match(a: &PlanarArray, lambda: f32, p: Vec3, q: Vec3) -> f64 {
+        let els = a.elements(1);
+        let (mut re, mut im) = (0.0f64, 0.0f64);
+        for e in &els {
+            let d = (q.as_dvec3().distance(e.as_dvec3()) - p.as_dvec3().distance(e.as_dvec3()))
+                / lambda as f64;
+            re += (std::f64::consts::TAU * d).cos();
+            im += (std::f64::consts::TAU * d).sin();
+        }
+        re.hypot(im) / els.len() as f64
+    }
+
+    #[test]
+    fn a_grating_alias_has_the_points_range_and_array_phases() {
+        // The paper's panel: 1 m wide over 32 columns, 3.125 cm ≈ 1.04 λ at 10 GHz.
+        let (a, lambda) = (panel(), 0.03f32);
+        let (p, tx) = (Vec3::new(-20.0, 8.0, 3.0), Vec3::new(-5.0, -10.0, 1.5));
+        let range = |q: Vec3| q.distance(tx) + q.distance(a.centre);
+        let aliases = a.grating_aliases(lambda, p, tx);
+        assert!(!aliases.is_empty());
+        for q in &aliases {
+            assert!((range(*q) - range(p)).abs() < 1e-3, "{q}");
+            assert!(q.distance(p) > 5.0, "{q}");
+            // The whole panel sees q's echo with p's phases (near-field residue aside).
+            let m = array_match(&a, lambda, p, *q);
+            assert!(m > 0.9, "{q}: {m}");
+        }
+        // Half an alias step away (same range) the panel does not match: the aliases are what
+        // the lattice makes, not any nearby direction.
+        let q = aliases[0];
+        let mid = a.centre
+            + ((p - a.centre).normalize() + (q - a.centre).normalize()).normalize()
+                * (p - a.centre).length();
+        assert!(array_match(&a, lambda, p, mid) < 0.2);
+        // A λ/2 panel has none.
+        let fine = PlanarArray {
+            width_m: 32.0 * 0.015,
+            ..panel()
+        };
+        assert!(fine.grating_aliases(lambda, p, tx).is_empty());
     }
 
     #[test]
