@@ -350,7 +350,9 @@ impl RangeCompressor {
     /// value [`RangeCompressor::prepare_reference_q15`] returned.
     ///
     /// # Errors
-    /// `LengthMismatch` as [`RangeCompressor::compress`].
+    /// `LengthMismatch` as [`RangeCompressor::compress`]; `OutOfRange` (`reference_exponent`) if
+    /// `reference_exponent + e_F` does not fit an `i32` (no reference this compressor prepares
+    /// comes near; the check keeps a corrupted exponent from wrapping into a plausible one).
     pub fn compress_q15(
         &self,
         y: &[CQ15],
@@ -370,7 +372,11 @@ impl RangeCompressor {
             |k| cq15_mul(y[k], reference[k]),
         );
         let e = ifft_q15(profile, self.cfg.q15_scaling)?;
-        Ok(e + reference_exponent)
+        e.checked_add(reference_exponent)
+            .ok_or(DspError::OutOfRange {
+                what: "reference_exponent",
+                value: reference_exponent as f32,
+            })
     }
 }
 
@@ -841,6 +847,36 @@ mod tests {
             ..good
         };
         assert!(RangeCompressor::new(bad_window).is_err());
+    }
+
+    /// `e_R + e_F` is checked: an exponent near `i32::MAX` (or `MIN`) is an error naming
+    /// `reference_exponent`, never a wrapped exponent.
+    #[test]
+    fn an_exponent_beyond_i32_range_is_an_error() {
+        let rc = RangeCompressor::new(cfg(64, 1, Window::Hann, RangeMode::Matched)).unwrap();
+        let one = Complex::new(Q15::from_f32(0.5), Q15::ZERO);
+        let (y, r) = (vec![one; 64], vec![one; 64]);
+        let mut p = vec![CQ15::default(); 64];
+        // Block scaling of a DC input: the FFT's block exponent e_F is > 0 here.
+        let e_f = rc.compress_q15(&y, &r, 0, &mut p).unwrap();
+        assert!(e_f > 0, "e_F {e_f}");
+        assert_eq!(rc.compress_q15(&y, &r, -e_f, &mut p), Ok(0));
+        assert_eq!(
+            rc.compress_q15(&y, &r, i32::MAX - e_f, &mut p),
+            Ok(i32::MAX)
+        );
+        for bad in [i32::MAX, i32::MAX - e_f + 1] {
+            let e = rc.compress_q15(&y, &r, bad, &mut p).unwrap_err();
+            assert_eq!(
+                e,
+                DspError::OutOfRange {
+                    what: "reference_exponent",
+                    value: bad as f32
+                }
+            );
+        }
+        // e_F ≥ 0, so i32::MIN itself is fine: the sum stays in range.
+        assert!(rc.compress_q15(&y, &r, i32::MIN, &mut p).is_ok());
     }
 
     #[test]
