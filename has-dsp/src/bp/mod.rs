@@ -266,6 +266,17 @@ impl<T> Snapshot<'_, T> {
 /// also keeps every squared distance finite, so no NaN can reach an accumulator.
 pub const MAX_LOCAL_M: f32 = 1.0e5;
 
+/// Bound, with margin, on every bistatic range `r_V + r_R` the kernels can meet, metres: voxels
+/// lie in \[0, [`MAX_LOCAL_M`]\]³ and positions in \[−[`MAX_LOCAL_M`], [`MAX_LOCAL_M`]\]³, so each
+/// distance is at most `2√3·MAX_LOCAL_M` and their sum `4√3·MAX_LOCAL_M` ≈ 6.93·10⁵ m.
+pub const MAX_BISTATIC_RANGE_M: f32 = 8.0 * MAX_LOCAL_M;
+
+/// Largest magnitude [`Backprojector::new`] lets the fractional bin `(r − r0)/dr` and the phase
+/// `r/λ` reach for any `r` up to [`MAX_BISTATIC_RANGE_M`]: `f32::MAX / 16`, so that the kernels'
+/// `x + 0.5`, `4·t + 0.5` and their roundings stay finite (beyond it a bin weight or a rotor
+/// would be `∞ − ∞ = NaN`, and the whole image NaN).
+const MAX_MAPPED: f64 = f32::MAX as f64 / 16.0;
+
 /// A grid-local position: finite and every component within ±[`MAX_LOCAL_M`].
 fn check_local(what: &'static str, p: Vec3) -> Result<(), DspError> {
     check_finite_vec3(what, p)?;
@@ -463,7 +474,12 @@ impl Backprojector {
     /// [`DspError::OutOfRange`] / [`DspError::NonFinite`] naming the field for a non-positive or
     /// non-finite `wavelength_m`, `dr_m`, grid spacing component, non-finite `r0_m` or origin;
     /// [`DspError::UnsupportedLength`] for a zero grid dimension or a voxel count that overflows;
-    /// [`DspError::OutOfRange`] for a grid extent beyond [`MAX_LOCAL_M`].
+    /// [`DspError::OutOfRange`] for a grid extent beyond [`MAX_LOCAL_M`];
+    /// [`DspError::OutOfRange`] when a bistatic range the grid can produce (up to
+    /// [`MAX_BISTATIC_RANGE_M`]) would map to a fractional bin `(r − r0)/dr` or a phase `r/λ`
+    /// beyond `f32::MAX / 16` — naming `config.dr_m` if `dr_m` is too small for any `r0_m`,
+    /// otherwise `config.r0_m` (too far from the grid for that `dr_m`), and `config.wavelength_m`
+    /// for a wavelength too small. (Such a configuration used to be accepted and give a NaN image.)
     pub fn new(cfg: BpConfig) -> Result<Self, DspError> {
         check_positive("config.wavelength_m", cfg.wavelength_m)?;
         check_positive("config.dr_m", cfg.dr_m)?;
@@ -495,6 +511,27 @@ impl Backprojector {
         let inv_dr = (1.0 / cfg.dr_m as f64) as f32;
         check_finite("1 / config.wavelength_m", inv_lambda)?;
         check_finite("1 / config.dr_m", inv_dr)?;
+        // Every range the grid can produce must map to a finite bin and phase (in f64: exact
+        // enough, with the margin of MAX_MAPPED covering the f32 roundings of r − r0 and ·inv_dr).
+        let r_max = MAX_BISTATIC_RANGE_M as f64;
+        if r_max * inv_dr as f64 > MAX_MAPPED {
+            return Err(DspError::OutOfRange {
+                what: "config.dr_m",
+                value: cfg.dr_m,
+            });
+        }
+        if (r_max + (cfg.r0_m as f64).abs()) * inv_dr as f64 > MAX_MAPPED {
+            return Err(DspError::OutOfRange {
+                what: "config.r0_m",
+                value: cfg.r0_m,
+            });
+        }
+        if r_max / cfg.wavelength_m as f64 > MAX_MAPPED {
+            return Err(DspError::OutOfRange {
+                what: "config.wavelength_m",
+                value: cfg.wavelength_m,
+            });
+        }
         Ok(Self {
             cfg,
             voxels,
@@ -706,7 +743,8 @@ impl Backprojector {
     /// # Errors
     /// [`DspError::GridTooLarge`] if `acc` holds fewer voxels than the grid;
     /// [`DspError::UnsupportedLength`] for an empty profile; [`DspError::NonFinite`] for a
-    /// non-finite position.
+    /// non-finite position; [`DspError::OutOfRange`] for a coordinate beyond ±[`MAX_LOCAL_M`]
+    /// (as every other push: a larger one could overflow a squared distance).
     pub fn push_reference_f64(
         &self,
         acc: &mut [Complex<f64>],
@@ -726,11 +764,17 @@ impl Backprojector {
                 len: 0,
             });
         }
-        if !tx.iter().all(|x| x.is_finite()) {
-            return Err(DspError::NonFinite { what: "tx" });
-        }
-        if !rx.iter().all(|x| x.is_finite()) {
-            return Err(DspError::NonFinite { what: "rx" });
+        for (what, p) in [("tx", tx), ("rx", rx)] {
+            if !p.iter().all(|x| x.is_finite()) {
+                return Err(DspError::NonFinite { what });
+            }
+            let m = p.iter().fold(0.0f64, |m, x| m.max(x.abs()));
+            if m > MAX_LOCAL_M as f64 {
+                return Err(DspError::OutOfRange {
+                    what,
+                    value: m as f32,
+                });
+            }
         }
         reference::reference_f64(self, &mut acc[..self.voxels], profile, tx, rx);
         Ok(())

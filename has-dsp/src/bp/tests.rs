@@ -846,3 +846,124 @@ fn profile_outside_the_grid_ranges_contributes_nothing() {
     bp.push(&mut acc, &p, Vec3::ZERO, Vec3::ZERO).unwrap();
     assert!(buf.iter().all(|z| *z == Complex::new(0.0, 0.0)));
 }
+
+/// Pushes one finite profile through every entry point (f32 fast paths, naive, `f64` reference,
+/// Q15) with extreme but accepted positions, and returns whether every image value is finite.
+fn every_push_is_finite(bp: &Backprojector) -> bool {
+    let n = bp.voxels();
+    let p = vec![Complex::new(1.0f32, -1.0); BINS];
+    let q = vec![Complex::new(Q15::from_f32(0.5), Q15::from_f32(-0.5)); BINS];
+    let far = Vec3::splat(-MAX_LOCAL_M);
+    let mut ok = true;
+    for (tx, rx) in [(Vec3::ZERO, Vec3::ZERO), (far, Vec3::splat(MAX_LOCAL_M))] {
+        let mut buf = vec![Complex::new(0.0f32, 0.0); n];
+        let mut power = vec![0.0f32; n];
+        let mut acc = AccF32::new(bp, &mut buf).unwrap();
+        bp.push(&mut acc, &p, tx, rx).unwrap();
+        bp.push_naive(&mut acc, &p, tx, rx).unwrap();
+        let rxs = [rx, tx];
+        let pp: Vec<_> = p.iter().chain(&p).copied().collect();
+        let snap = Snapshot {
+            tx,
+            rx: &rxs,
+            profiles: &pp,
+            profile_len: BINS,
+        };
+        bp.push_snapshot_with_power(&mut acc, &mut power, &snap)
+            .unwrap();
+        ok &= buf.iter().all(|z| z.re.is_finite() && z.im.is_finite());
+        ok &= power.iter().all(|x| x.is_finite());
+        let mut r64 = vec![Complex::new(0.0f64, 0.0); n];
+        bp.push_reference_f64(&mut r64, &p, v64(tx), v64(rx))
+            .unwrap();
+        ok &= r64.iter().all(|z| z.re.is_finite() && z.im.is_finite());
+        let mut qbuf = vec![Complex::new(0i64, 0); n];
+        let mut qacc = AccQ15::new(bp, &mut qbuf).unwrap();
+        bp.push_q15(&mut qacc, &q, 3, tx, rx).unwrap();
+        let mut img = vec![Complex::new(0.0f32, 0.0); n];
+        qacc.to_image_f32(&mut img).unwrap();
+        ok &= img.iter().all(|z| z.re.is_finite() && z.im.is_finite());
+    }
+    ok
+}
+
+/// A finite `r0_m = −3·10³⁸` with `dr_m = 10⁻³⁰` used to be accepted, and `(r − r0)/dr`
+/// overflowed to ∞ for every voxel: bin weight ∞ − ∞ = NaN, an all-NaN image. Now a range, bin or
+/// phase mapping that can leave the finite range is an error naming the field and its value
+/// (`dr_m` if no `r0_m` would do, else `r0_m`; `wavelength_m` for `r/λ`), and configurations
+/// just inside the limits give finite images from every push.
+#[test]
+fn a_range_to_bin_mapping_that_overflows_f32_is_an_error() {
+    for interp in [Interp::Linear, Interp::Nearest] {
+        for phase in [PhaseEval::Poly, PhaseEval::Libm] {
+            let ok = config(interp, phase);
+            let cases = [
+                (-3e38, 1e-30, LAMBDA, "config.r0_m", -3e38),
+                (3e38, 1e-30, LAMBDA, "config.r0_m", 3e38),
+                (-1e32, 1e-6, LAMBDA, "config.r0_m", -1e32),
+                (f32::MAX, 1.0, LAMBDA, "config.r0_m", f32::MAX),
+                (0.0, 1e-33, LAMBDA, "config.dr_m", 1e-33),
+                (-3e38, 1e-36, LAMBDA, "config.dr_m", 1e-36),
+                (0.0, DR, 1e-33, "config.wavelength_m", 1e-33),
+            ];
+            for (r0_m, dr_m, wavelength_m, field, value) in cases {
+                let cfg = BpConfig {
+                    r0_m,
+                    dr_m,
+                    wavelength_m,
+                    ..ok
+                };
+                assert_eq!(
+                    Backprojector::new(cfg),
+                    Err(DspError::OutOfRange { what: field, value }),
+                    "r0 {r0_m} dr {dr_m} λ {wavelength_m}"
+                );
+            }
+            // Just inside: accepted, and every image stays finite.
+            for (r0_m, dr_m, wavelength_m) in [
+                (0.0, 1e-31, LAMBDA),
+                (-1e30, 1.0, LAMBDA),
+                (1e36, 1e-0, LAMBDA),
+                (0.0, DR, 1e-31),
+                (0.0, f32::MAX, f32::MAX),
+                (-f32::MAX, 1e30, LAMBDA),
+            ] {
+                let bp = Backprojector::new(BpConfig {
+                    r0_m,
+                    dr_m,
+                    wavelength_m,
+                    ..ok
+                })
+                .unwrap();
+                assert!(
+                    every_push_is_finite(&bp),
+                    "{interp:?} {phase:?} r0 {r0_m} dr {dr_m} λ {wavelength_m}"
+                );
+            }
+        }
+    }
+}
+
+/// The `f64` reference refuses positions beyond ±`MAX_LOCAL_M` like every other push (a
+/// coordinate of 10²⁰⁰ overflowed the squared distance and gave NaN).
+#[test]
+fn a_reference_position_beyond_the_local_limit_is_an_error() {
+    let bp = Backprojector::new(config(Interp::Linear, PhaseEval::Poly)).unwrap();
+    let mut r64 = vec![Complex::new(0.0f64, 0.0); bp.voxels()];
+    let p = vec![Complex::new(1.0f32, 0.0); BINS];
+    assert_eq!(
+        bp.push_reference_f64(&mut r64, &p, [0.0, 1e200, 0.0], [0.0; 3]),
+        Err(DspError::OutOfRange {
+            what: "tx",
+            value: 1e200f64 as f32
+        })
+    );
+    assert_eq!(
+        bp.push_reference_f64(&mut r64, &p, [0.0; 3], [-2e5, 0.0, 0.0]),
+        Err(DspError::OutOfRange {
+            what: "rx",
+            value: 2e5
+        })
+    );
+    assert!(r64.iter().all(|z| *z == Complex::new(0.0, 0.0)));
+}
