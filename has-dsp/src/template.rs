@@ -105,6 +105,12 @@ fn check_common(bins: usize, len: usize) -> Result<usize, DspError> {
     Ok(count)
 }
 
+/// Largest component magnitude `max(|re|, |im|)` over `v`, in `f64` (0 for an empty slice).
+fn component_peak(v: &[C32]) -> f64 {
+    v.iter()
+        .fold(0.0f32, |m, z| m.max(z.re.abs()).max(z.im.abs())) as f64
+}
+
 /// `P` environment templates of `bins` `f32` samples each, with their factored Gram matrix.
 /// `P = 1` is the single-template fit `g = tᴴy / tᴴt` (alias [`Template`]).
 #[derive(Clone, Debug)]
@@ -112,6 +118,8 @@ pub struct TemplateSet<'a, const P: usize> {
     templates: &'a [C32],
     bins: usize,
     chol: [[C64; P]; P],
+    /// Largest component magnitude `max_n max(|re|, |im|)` of each template (overflow bound).
+    peak: [f64; P],
 }
 
 /// One `f32` template.
@@ -139,10 +147,15 @@ impl<'a, const P: usize> TemplateSet<'a, P> {
             }
         }
         factor_gram(&mut chol, loading)?;
+        let mut peak = [0.0f64; P];
+        for (p, m) in peak.iter_mut().enumerate() {
+            *m = component_peak(&templates[p * bins..(p + 1) * bins]);
+        }
         Ok(Self {
             templates,
             bins,
             chol,
+            peak,
         })
     }
 
@@ -164,15 +177,54 @@ impl<'a, const P: usize> TemplateSet<'a, P> {
         Ok(g)
     }
 
-    /// Solves `(TᴴT)·g = r / frames` and rounds the gains to `f32`.
+    /// Solves `(TᴴT)·g = r / frames` and rounds the gains to `f32`; a gain beyond the `f32` range
+    /// (a frame enormous against a tiny template) is an error.
     fn solve(&self, mut r: [C64; P], frames: usize) -> Result<[C32; P], DspError> {
         cholesky_solve(&self.chol, P, &mut r)?;
         let inv = 1.0 / frames as f64;
         let mut out = [C32::new(0.0, 0.0); P];
         for (o, z) in out.iter_mut().zip(&r) {
             *o = C32::new((z.re * inv) as f32, (z.im * inv) as f32);
+            for c in [o.re, o.im] {
+                if !c.is_finite() {
+                    return Err(DspError::OutOfRange {
+                        what: "gains (beyond the f32 range)",
+                        value: c,
+                    });
+                }
+            }
         }
         Ok(out)
+    }
+
+    /// Checks, before anything is written, that [`Self::apply`] of the finite gains `g` to every
+    /// frame of `frames` (finite samples) gives a finite residual. Cheap bound first: every
+    /// partial result of `y − Σ_p g_p·t_p` has components at most
+    /// `max|y| + Σ_p 2·max|g_p|·max|t_p|` (times `1 + O(P·2⁻²⁴)` of rounding), so below
+    /// `f32::MAX / 2` nothing can overflow. Otherwise the residual is evaluated exactly as `apply`
+    /// will (same operations, same order) without writing it.
+    fn check_residual(&self, frames: &[C32], g: &[C32; P]) -> Result<(), DspError> {
+        let mut bound = component_peak(frames);
+        for (gp, tp) in g.iter().zip(&self.peak) {
+            bound += 2.0 * (gp.re.abs().max(gp.im.abs()) as f64) * tp;
+        }
+        if bound <= f32::MAX as f64 / 2.0 {
+            return Ok(());
+        }
+        for frame in frames.chunks_exact(self.bins) {
+            for (n, &y) in frame.iter().enumerate() {
+                let mut r = y;
+                for (p, gp) in g.iter().enumerate() {
+                    r -= gp * self.templates[p * self.bins + n];
+                }
+                if !(r.re.is_finite() && r.im.is_finite()) {
+                    return Err(DspError::NonFinite {
+                        what: "residual (y − T·g beyond the f32 range)",
+                    });
+                }
+            }
+        }
+        Ok(())
     }
 
     /// `y ← y − T·g`.
@@ -189,7 +241,8 @@ impl<'a, const P: usize> TemplateSet<'a, P> {
     ///
     /// # Errors
     /// [`DspError::LengthMismatch`] if `frame.len() ≠ bins`; [`DspError::NonFinite`] if the frame
-    /// holds a NaN or infinity (detected through the correlation, no extra pass).
+    /// holds a NaN or infinity (detected through the correlation, no extra pass);
+    /// [`DspError::OutOfRange`] (`gains`) if a gain is beyond the `f32` range.
     pub fn fit(&self, frame: &[C32]) -> Result<[C32; P], DspError> {
         self.solve(self.correlate(frame)?, 1)
     }
@@ -197,9 +250,11 @@ impl<'a, const P: usize> TemplateSet<'a, P> {
     /// Fits the gains and replaces `frame` by the residual `y − T·g`; returns the gains.
     ///
     /// # Errors
-    /// As [`TemplateSet::fit`].
+    /// As [`TemplateSet::fit`]; [`DspError::NonFinite`] (`residual`) if the residual would
+    /// overflow `f32` (only for samples near the `f32` range; `frame` is then left untouched).
     pub fn subtract_in_place(&self, frame: &mut [C32]) -> Result<[C32; P], DspError> {
         let g = self.fit(frame)?;
+        self.check_residual(frame, &g)?;
         self.apply(frame, &g);
         Ok(g)
     }
@@ -212,7 +267,8 @@ impl<'a, const P: usize> TemplateSet<'a, P> {
     ///
     /// # Errors
     /// [`DspError::LengthMismatch`] if `frames.len()` is not a non-zero multiple of `bins`;
-    /// [`DspError::NonFinite`] for a NaN or infinity (nothing is modified then).
+    /// [`DspError::NonFinite`] for a NaN or infinity, or a residual that would overflow, and
+    /// [`DspError::OutOfRange`] for a gain beyond the `f32` range (nothing is modified then).
     pub fn subtract_block_common(&self, frames: &mut [C32]) -> Result<[C32; P], DspError> {
         let count = check_common(self.bins, frames.len())?;
         let mut r = [C64::new(0.0, 0.0); P];
@@ -222,6 +278,7 @@ impl<'a, const P: usize> TemplateSet<'a, P> {
             }
         }
         let g = self.solve(r, count)?;
+        self.check_residual(frames, &g)?;
         for frame in frames.chunks_exact_mut(self.bins) {
             self.apply(frame, &g);
         }
@@ -574,6 +631,58 @@ mod tests {
             let clamped = e.clamp(-1.0, 1.0 - 1.0 / 32768.0);
             assert!((clamped - v).abs() <= 2.0 / 32768.0, "{e} → {v}");
         }
+    }
+
+    /// A frame enormous against a tiny template used to give gains beyond `f32` and a residual
+    /// of −∞ + NaN·j, returned as `Ok`. Now a gain beyond `f32` is an error naming `gains` with
+    /// its (infinite) value, a residual that would overflow is an error naming `residual`, and
+    /// neither touches the frame.
+    #[test]
+    fn a_result_beyond_the_f32_range_is_an_error_not_ok() {
+        let t = [C32::new(1e-19, 0.0); 64];
+        let set = Template::new(&t, 64, 0.0).unwrap();
+        let mut y = [C32::new(1e20, 0.0); 64];
+        let before = y;
+        match set.subtract_in_place(&mut y) {
+            Err(DspError::OutOfRange { what, value }) => {
+                assert!(what.starts_with("gains"), "{what}");
+                assert!(value.is_infinite(), "{value}");
+            }
+            other => panic!("{other:?}"),
+        }
+        assert_eq!(y, before);
+        assert!(set.fit(&y).is_err());
+        let mut block = [C32::new(1e20, 0.0); 128];
+        assert!(set.subtract_block_common(&mut block).is_err());
+        assert!(block.iter().all(|z| *z == C32::new(1e20, 0.0)));
+        let mut gains = [C32::new(0.0, 0.0); 2];
+        assert!(set.subtract_block(&mut block, &mut gains).is_err());
+
+        // Finite gains whose residual overflows: y = (3, −3, −3)·10³⁸ against t = (1, 1, 1). The
+        // correlation stays finite (partial sums 3e38, 0, −3e38) and g = −10³⁸, but
+        // y₀ − g·t₀ = 4·10³⁸ exceeds f32 (the residual is contracting only in the 2-norm).
+        let t = [C32::new(1.0, 0.0); 3];
+        let set = Template::new(&t, 3, 0.0).unwrap();
+        let mut y: Vec<C32> = [3e38f32, -3e38, -3e38]
+            .iter()
+            .map(|&v| C32::new(v, 0.0))
+            .collect();
+        let before = y.clone();
+        let g = set.fit(&y).unwrap();
+        assert!(g[0].re.is_finite());
+        assert_eq!(
+            set.subtract_in_place(&mut y),
+            Err(DspError::NonFinite {
+                what: "residual (y − T·g beyond the f32 range)"
+            })
+        );
+        assert_eq!(y, before);
+
+        // Large but representable: the exact check passes and the result is finite and right.
+        let mut y: Vec<C32> = t.iter().map(|v| v * 1e38).collect();
+        let g = set.subtract_in_place(&mut y).unwrap();
+        assert!((g[0].re - 1e38).abs() <= 1e32, "{g:?}");
+        assert!(y.iter().all(|z| z.re.is_finite() && z.im.is_finite()));
     }
 
     #[test]
