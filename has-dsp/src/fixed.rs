@@ -155,26 +155,29 @@ impl RoundAway for f64 {
     }
 }
 
-/// Arithmetic shift right by `s` with rounding to nearest (half up), for `i32` accumulators.
-/// `s = 0` returns `x`.
+/// Arithmetic shift right by `s` with rounding to nearest (half up), for `i32` accumulators:
+/// `⌊x / 2^s + ½⌋`, exactly, for every `x` and every `s`.
+///
+/// `s = 0` returns `x`. A shift at or beyond the width (`s ≥ 32`) is defined, not wrapped:
+/// `|x / 2^s| ≤ ½` then, and every `x` rounds to 0 (`i32::MIN >> 32` is exactly −½, which rounds
+/// half up to 0). Branch free: the shift is clamped to 32 and `2x + 2^s` is shifted by `s + 1`
+/// in `i64`.
 #[inline]
 pub fn round_shift_i32(x: i32, s: u32) -> i32 {
-    if s == 0 {
-        x
-    } else {
-        ((x as i64 + (1i64 << (s - 1))) >> s) as i32
-    }
+    let s = s.min(32);
+    // ⌊(2x + 2^s) / 2^(s+1)⌋ = ⌊x/2^s + ½⌋; |2x| ≤ 2³², 2^s ≤ 2³², so the sum fits an i64.
+    (((x as i64) * 2 + (1i64 << s)) >> (s + 1)) as i32
 }
 
-/// Arithmetic shift right by `s` with rounding to nearest (half up), for `i64` accumulators.
-/// `s = 0` returns `x`.
+/// Arithmetic shift right by `s` with rounding to nearest (half up), for `i64` accumulators:
+/// `⌊x / 2^s + ½⌋`, exactly, for every `x` and every `s`.
+///
+/// `s = 0` returns `x`; `s ≥ 64` rounds every `x` to 0 (as [`round_shift_i32`] for `s ≥ 32`).
+/// Branch free, in `i128`.
 #[inline]
 pub fn round_shift_i64(x: i64, s: u32) -> i64 {
-    if s == 0 {
-        x
-    } else {
-        ((x as i128 + (1i128 << (s - 1))) >> s) as i64
-    }
+    let s = s.min(64);
+    (((x as i128) * 2 + (1i128 << s)) >> (s + 1)) as i64
 }
 
 /// Saturates an `i32` to the `i16` range.
@@ -367,5 +370,65 @@ mod tests {
         assert_eq!(round_shift_i32(-3, 1), -1);
         assert_eq!(round_shift_i32(5, 0), 5);
         assert_eq!(round_shift_i64(1 << 40, 10), 1 << 30);
+    }
+
+    /// `⌊x/2^s + ½⌋` for every shift: at or beyond the width everything rounds to 0 (the old
+    /// code returned `x` for `s = 64` / `128`, where the shift amount wrapped).
+    #[test]
+    fn a_shift_at_or_beyond_the_width_rounds_to_zero() {
+        assert_eq!(round_shift_i32(1000, 64), 0);
+        assert_eq!(round_shift_i64(1000, 128), 0);
+        for s in [32, 33, 63, 64, 65, 127, 128, 1000, u32::MAX] {
+            for x in [i32::MIN, i32::MIN + 1, -1000, -1, 0, 1, 1000, i32::MAX] {
+                assert_eq!(round_shift_i32(x, s), 0, "round_shift_i32({x}, {s})");
+            }
+        }
+        for s in [64, 65, 127, 128, 129, 1000, u32::MAX] {
+            for x in [i64::MIN, i64::MIN + 1, -1000, -1, 0, 1, 1000, i64::MAX] {
+                assert_eq!(round_shift_i64(x, s), 0, "round_shift_i64({x}, {s})");
+            }
+        }
+        // Just below the width the exact rounding still holds: −2³¹/2³¹ = −1, and half up.
+        assert_eq!(round_shift_i32(i32::MIN, 31), -1);
+        assert_eq!(round_shift_i32(i32::MAX, 31), 1);
+        assert_eq!(round_shift_i32(1 << 30, 31), 1);
+        assert_eq!(round_shift_i32(-(1 << 30), 31), 0);
+        assert_eq!(round_shift_i64(i64::MIN, 63), -1);
+        assert_eq!(round_shift_i64(i64::MAX, 63), 1);
+        assert_eq!(round_shift_i64(i64::MAX, 0), i64::MAX);
+        assert_eq!(round_shift_i64(i64::MIN, 0), i64::MIN);
+        assert_eq!(round_shift_i32(i32::MIN, 0), i32::MIN);
+    }
+
+    /// Bit-identical to the previous formula `(x + 2^(s−1)) >> s` (widened) wherever that one was
+    /// defined: every `s ≥ 1` below the width of the widened type, which for `i32` includes
+    /// 32 … 63 (where it gives the 0 now returned without widening far).
+    #[test]
+    fn round_shift_matches_the_widened_formula_wherever_it_was_defined() {
+        let mut seed = 0x9e37_79b9_7f4a_7c15u64;
+        let mut next = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            seed
+        };
+        for _ in 0..2000 {
+            let x64 = next() as i64 >> (next() % 64);
+            let x32 = x64 as i32;
+            for s in 0..=130u32 {
+                let want32 = match s {
+                    0 => x32,
+                    1..=63 => ((x32 as i64 + (1i64 << (s - 1))) >> s) as i32,
+                    _ => 0,
+                };
+                assert_eq!(round_shift_i32(x32, s), want32, "{x32} >> {s}");
+                let want64 = match s {
+                    0 => x64,
+                    1..=127 => ((x64 as i128 + (1i128 << (s - 1))) >> s) as i64,
+                    _ => 0,
+                };
+                assert_eq!(round_shift_i64(x64, s), want64, "{x64} >> {s}");
+            }
+        }
     }
 }
