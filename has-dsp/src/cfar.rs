@@ -27,10 +27,13 @@
 //! **Edges.** Near the ends of the line the training window is truncated to the cells that exist
 //! (`N` between `train` and `2·train`) and `α` is recomputed for that `N`, so the false-alarm
 //! probability stays `pfa` at every cell. A line must hold at least `2·(guard + train) + 1` cells,
-//! which guarantees `N ≥ train` everywhere.
+//! which guarantees `N ≥ train` everywhere. `guard` may be any count for which that length fits a
+//! `usize` (checked when the detector is configured).
 //!
 //! **Arithmetic.** Window sums slide in `f64` (one add and one subtract per side and cell, no
-//! drift worth counting for lines up to 2³² cells); the threshold is rounded to `f32` once.
+//! drift worth counting for lines up to 2³² cells); the threshold is rounded to `f32` once, and a
+//! threshold beyond the `f32` range (a tiny `pfa` over large powers) saturates to `f32::MAX`,
+//! which no finite power exceeds — the same decisions as the exact threshold, and always finite.
 //! `pfa^{−1/N}` is computed with `libm` once per possible `N` when the detector is configured.
 
 use crate::error::{check_len, DspError};
@@ -51,6 +54,8 @@ pub struct CaCfar {
     edge: [f64; MAX_CFAR_TRAIN + 1],
     /// Independent-cell equivalent of the full window, `N_eff` (`2·train` for uncorrelated cells).
     effective: f64,
+    /// `2·(guard + train) + 1`, checked not to overflow.
+    min_len: usize,
 }
 
 impl CaCfar {
@@ -59,8 +64,10 @@ impl CaCfar {
     ///
     /// # Errors
     /// [`DspError::UnsupportedLength`] (`cfar.train`) for `train = 0` or above
-    /// [`MAX_CFAR_TRAIN`]; [`DspError::OutOfRange`]
-    /// (`cfar.pfa`) for a `pfa` outside (0, 1) or not finite.
+    /// [`MAX_CFAR_TRAIN`]; [`DspError::UnsupportedLength`] (`cfar.guard`) for a `guard` so large
+    /// that the shortest line, `2·(guard + train) + 1` cells, does not fit a `usize`;
+    /// [`DspError::OutOfRange`] (`cfar.pfa`) for a `pfa` outside (0, 1) or not finite, or so
+    /// small that the CA-CFAR factor `pfa^{−1/N} − 1` overflows `f64`.
     pub fn new(train: usize, guard: usize, pfa: f64) -> Result<Self, DspError> {
         Self::with_power_correlation(train, guard, pfa, &[])
     }
@@ -84,6 +91,14 @@ impl CaCfar {
                 len: train,
             });
         }
+        let min_len = guard
+            .checked_add(train)
+            .and_then(|w| w.checked_mul(2))
+            .and_then(|w| w.checked_add(1))
+            .ok_or(DspError::UnsupportedLength {
+                what: "cfar.guard (2·(guard + train) + 1 overflows)",
+                len: guard,
+            })?;
         if !(pfa.is_finite() && pfa > 0.0 && pfa < 1.0) {
             return Err(DspError::OutOfRange {
                 what: "cfar.pfa (0 < pfa < 1)",
@@ -117,6 +132,13 @@ impl CaCfar {
             // a line of at least `min_len` cells never truncates both sides).
             let n_eff = full_side + neff(i);
             *e = mean_level_factor(pfa, n_eff) / (train + i) as f64;
+            // A subnormal pfa makes pfa^{−1/N} infinite (and ∞ · an empty sum NaN).
+            if !e.is_finite() {
+                return Err(DspError::OutOfRange {
+                    what: "cfar.pfa (pfa^(−1/N) overflows)",
+                    value: pfa as f32,
+                });
+            }
         }
         Ok(Self {
             train,
@@ -125,6 +147,7 @@ impl CaCfar {
             full_factor: edge[train],
             edge,
             effective: 2.0 * full_side,
+            min_len,
         })
     }
 
@@ -158,11 +181,12 @@ impl CaCfar {
 
     /// Shortest line this configuration accepts: `2·(guard + train) + 1`.
     pub fn min_len(&self) -> usize {
-        2 * (self.guard + self.train) + 1
+        self.min_len
     }
 
     /// Writes the threshold of every cell of `power` into `threshold` and returns how many cells
-    /// exceed theirs (`power[i] > threshold[i]`).
+    /// exceed theirs (`power[i] > threshold[i]`). Every threshold is finite (≤ `f32::MAX`, see the
+    /// module docs). Any line length is safe: a line shorter than [`CaCfar::min_len`] is an error.
     ///
     /// # Errors
     /// [`DspError::LengthMismatch`] (`cfar threshold`) if the buffers differ in length;
@@ -191,7 +215,9 @@ impl CaCfar {
             }
         }
         let (g, t) = (self.guard, self.train);
-        // Left window of cell i: [i − g − t, i − g − 1]; right: [i + g + 1, i + g + t] (clipped).
+        // From here len ≥ 2·(g + t) + 1 (no overflow: checked in the constructor), so g + t < len
+        // and no index expression below overflows. Left window of cell i: [i − g − t, i − g − 1];
+        // right: [i + g + 1, i + g + t] (clipped).
         let mut left = 0.0f64;
         let mut right: f64 = power[(g + 1).min(len)..(g + 1 + t).min(len)]
             .iter()
@@ -204,7 +230,8 @@ impl CaCfar {
             let n = n_left + n_right;
             // n ≥ t (checked line length), so the index is at most t ≤ MAX_CFAR_TRAIN.
             let factor = self.edge[n - t];
-            let th = (factor * (left + right)) as f32;
+            // Saturate rather than round a huge threshold to +∞ (module docs).
+            let th = (factor * (left + right)).min(f32::MAX as f64) as f32;
             threshold[i] = th;
             if power[i] > th {
                 hits += 1;
@@ -395,6 +422,82 @@ mod tests {
         let c = CaCfar::new(16, 2, 1e-6).unwrap();
         assert!((c.alpha() - 32.0 * (10f64.powf(6.0 / 32.0) - 1.0)).abs() < 1e-9);
         assert_eq!(c.min_len(), 37);
+    }
+
+    /// `2·(guard + train) + 1` used to overflow (wrapping to a short window in release builds, and
+    /// then `thresholds` indexed out of bounds): a guard for which it does not fit is an error
+    /// naming `cfar.guard`, with the guard as the value.
+    #[test]
+    fn a_guard_whose_window_length_overflows_is_an_error() {
+        for (train, guard) in [
+            (1, usize::MAX),
+            (4, usize::MAX - 1),
+            (64, usize::MAX / 2),
+            (1, usize::MAX / 2),
+            (64, usize::MAX / 2 - 63),
+        ] {
+            match CaCfar::new(train, guard, 1e-4) {
+                Err(DspError::UnsupportedLength { what, len }) => {
+                    assert!(what.starts_with("cfar.guard"), "{what}");
+                    assert_eq!(len, guard);
+                }
+                other => panic!("train {train}, guard {guard}: {other:?}"),
+            }
+        }
+        // The largest guard that fits: accepted, and every line is too short for it (an error,
+        // not a panic).
+        let guard = usize::MAX / 2 - 64;
+        let c = CaCfar::new(64, guard, 0.5).unwrap();
+        assert_eq!(c.min_len(), usize::MAX);
+        let x = [1.0f32; 300];
+        let mut th = [0.0f32; 300];
+        assert!(matches!(
+            c.thresholds(&x, &mut th),
+            Err(DspError::UnsupportedLength { len: 300, .. })
+        ));
+    }
+
+    /// For every accepted configuration and every line length, `thresholds` returns (an error
+    /// for a short line) instead of panicking, and every threshold it writes is finite — also
+    /// for a tiny `pfa` over powers near `f32::MAX`, where the exact threshold exceeds the `f32`
+    /// range and saturates to `f32::MAX`. A subnormal `pfa` (whose factor is infinite) is refused.
+    #[test]
+    fn thresholds_never_panic_and_are_finite_for_any_accepted_config_and_line() {
+        for train in [1, 2, 5, MAX_CFAR_TRAIN] {
+            for guard in [0, 1, 3, 40, 200] {
+                for pfa in [0.5, 1e-6, 1e-300] {
+                    let c = CaCfar::new(train, guard, pfa).unwrap();
+                    let need = 2 * (guard + train) + 1;
+                    assert_eq!(c.min_len(), need);
+                    for len in (0..=need + 3).chain([need + 100]) {
+                        for level in [0.0f32, 1.0, f32::MAX] {
+                            let x = std::vec![level; len];
+                            let mut th = std::vec![0.0f32; len];
+                            let r = c.thresholds(&x, &mut th);
+                            if len < need {
+                                assert!(r.is_err(), "train {train} guard {guard} len {len}");
+                            } else {
+                                assert!(r.is_ok(), "train {train} guard {guard} len {len}");
+                                assert!(
+                                    th.iter().all(|t| t.is_finite() && *t >= 0.0),
+                                    "train {train} guard {guard} pfa {pfa} level {level}"
+                                );
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let c = CaCfar::new(1, 0, 1e-300).unwrap();
+        let mut th = [0.0f32; 3];
+        assert_eq!(c.thresholds(&[1e10, 1.0, 1e10], &mut th), Ok(0));
+        assert_eq!(th[1], f32::MAX);
+        for pfa in [f64::MIN_POSITIVE / 8.0, 5e-324] {
+            assert!(matches!(
+                CaCfar::new(1, 0, pfa),
+                Err(DspError::OutOfRange { what, .. }) if what.starts_with("cfar.pfa")
+            ));
+        }
     }
 
     #[test]
