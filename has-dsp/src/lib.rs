@@ -21,6 +21,8 @@ pub mod bp;
 pub mod cfar;
 pub mod eca;
 pub mod error;
+#[cfg(test)]
+mod extreme_tests;
 pub mod fft;
 pub mod fixed;
 mod float;
