@@ -246,7 +246,24 @@ impl Chain {
         let bin0 = (2.0 * spec.range_min_m as f64 / bin_m).floor() as usize;
         let bin1 =
             ((2.0 * spec.range_max_m as f64 / bin_m).ceil() as usize).min(rc.profile_len() - 1);
-        if bin1 <= bin0 + 2 * (spec.cfar_guard + spec.cfar_train) {
+        // The CFAR window, 2·(guard + train) + 1 bins: longer than the whole profile, no range
+        // window can hold it and the guard is what is wrong.
+        let window = spec
+            .cfar_guard
+            .checked_add(spec.cfar_train)
+            .and_then(|h| h.checked_mul(2))
+            .filter(|&w| w < rc.profile_len());
+        let Some(window) = window else {
+            return Err(LocalizeError::Config(
+                crate::imaging::ScenarioError::Invalid {
+                    field: "localize.cfar_guard".into(),
+                    value: format!("{}", spec.cfar_guard),
+                    expected:
+                        "a CFAR window (2·(guard + train) + 1 bins) shorter than the range profile",
+                },
+            ));
+        };
+        if bin1 <= bin0 + window {
             return Err(LocalizeError::Config(crate::imaging::ScenarioError::Invalid {
                 field: "localize.range_max_m".into(),
                 value: format!("{}", spec.range_max_m),
@@ -951,5 +968,29 @@ mod tests {
         assert!(subtract_templates(&t, 3, &mut f).is_err());
         // An all-zero template has no energy: has-dsp refuses it.
         assert!(subtract_templates(&t, 2, &mut f).is_err());
+    }
+
+    #[test]
+    fn a_cfar_guard_longer_than_the_profile_is_named_not_the_range() {
+        for guard in [100_000, usize::MAX] {
+            let mut s = factory_spec();
+            s.apply_quick();
+            s.cfar_guard = guard;
+            let e = Chain::new(&s, crate::echo::qpsk_symbols(s.subcarriers, 1))
+                .err()
+                .expect("accepted")
+                .to_string();
+            assert!(e.starts_with("localize.cfar_guard"), "{e}");
+            assert!(e.contains(&guard.to_string()), "{e}");
+        }
+        // A range window too short for a sane CFAR window still names the range.
+        let mut s = factory_spec();
+        s.apply_quick();
+        s.range_max_m = s.range_min_m + 0.1;
+        let e = Chain::new(&s, crate::echo::qpsk_symbols(s.subcarriers, 1))
+            .err()
+            .expect("accepted")
+            .to_string();
+        assert!(e.starts_with("localize.range_max_m"), "{e}");
     }
 }
