@@ -251,13 +251,7 @@ fn the_avx2_build_gives_the_baseline_build_bit_for_bit() {
                 kernel::run_f32_portable(&bp, 0, &mut b, &mut [], &snap);
                 assert!(kernel::avx2::run_f32(&bp, 0, &mut a, &mut pa, &snap));
                 kernel::run_f32_portable(&bp, 0, &mut b, &mut pb, &snap);
-                for ((p, qp), e) in profiles
-                    .chunks_exact(BINS)
-                    .zip(q.chunks_exact_mut(BINS))
-                    .zip(exps.iter_mut())
-                {
-                    *e = quantize(p, qp);
-                }
+                quantize_snapshot(&profiles, &mut q, &mut exps);
                 let snap = Snapshot {
                     tx,
                     rx: &rx,
@@ -475,6 +469,17 @@ fn quantize(p: &[Complex<f32>], out: &mut [CQ15]) -> i32 {
     crate::fixed::cq15_block_from_c32(p, out).unwrap()
 }
 
+/// Each element's profile of a snapshot (`BINS` bins each) to Q15 with its block exponent.
+fn quantize_snapshot(profiles: &[Complex<f32>], q: &mut [CQ15], exps: &mut [i32]) {
+    for ((p, qp), e) in profiles
+        .chunks_exact(BINS)
+        .zip(q.chunks_exact_mut(BINS))
+        .zip(exps.iter_mut())
+    {
+        *e = quantize(p, qp);
+    }
+}
+
 #[test]
 fn q15_path_focuses_and_matches_f32() {
     let bp = Backprojector::new(config(Interp::Linear, PhaseEval::Poly)).unwrap();
@@ -486,13 +491,7 @@ fn q15_path_focuses_and_matches_f32() {
     let mut exps = vec![0i32; rx.len()];
     for tx in tx_positions() {
         let profiles = snapshot_profiles(&bp, tx, &rx, &targets);
-        for ((p, qp), e) in profiles
-            .chunks_exact(BINS)
-            .zip(q.chunks_exact_mut(BINS))
-            .zip(exps.iter_mut())
-        {
-            *e = quantize(p, qp);
-        }
+        quantize_snapshot(&profiles, &mut q, &mut exps);
         let snap = Snapshot {
             tx,
             rx: &rx,

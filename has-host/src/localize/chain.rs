@@ -976,10 +976,10 @@ mod tests {
             let mut s = factory_spec();
             s.apply_quick();
             s.cfar_guard = guard;
-            let e = Chain::new(&s, crate::echo::qpsk_symbols(s.subcarriers, 1))
-                .err()
-                .expect("accepted")
-                .to_string();
+            let Err(e) = Chain::new(&s, crate::echo::qpsk_symbols(s.subcarriers, 1)) else {
+                panic!("cfar_guard {guard} accepted");
+            };
+            let e = e.to_string();
             assert!(e.starts_with("localize.cfar_guard"), "{e}");
             assert!(e.contains(&guard.to_string()), "{e}");
         }
@@ -987,10 +987,10 @@ mod tests {
         let mut s = factory_spec();
         s.apply_quick();
         s.range_max_m = s.range_min_m + 0.1;
-        let e = Chain::new(&s, crate::echo::qpsk_symbols(s.subcarriers, 1))
-            .err()
-            .expect("accepted")
-            .to_string();
+        let Err(e) = Chain::new(&s, crate::echo::qpsk_symbols(s.subcarriers, 1)) else {
+            panic!("a 0.1 m range window accepted");
+        };
+        let e = e.to_string();
         assert!(e.starts_with("localize.range_max_m"), "{e}");
     }
 }
