@@ -11,9 +11,14 @@
 //! next to a vehicle's track, and the receiver noise — each through the pair's real point-spread
 //! function.
 //!
-//! **The test.** `C(v)`, the mean of `|I_m|²` over the voxels within ± one mean resolution cell
-//! (`∛(δr·δx_V·δz_R)`, [`super::sensors::pair_resolution_m`]) of `v`, estimates that power from
-//! about `N = V_window / V_cell` independent looks. `P(v) = Σ_tx Σ_rx |s(r(v))|²`, the
+//! **The test.** `C(v)`, the mean of `|I_m|²` over the voxels of `v`'s own horizontal layer within
+//! ± two mean resolution cells (`∛(δr·δx_V·δz_R)`, [`super::sensors::pair_resolution_m`]) of `v`
+//! ([`layer_window`]), estimates that power from about `N = A_window / (δr·δx_V)` independent
+//! looks. The window stays in the layer because the terrain's image is stationary along the
+//! ground but not upwards: there it follows the panel's elevation beam down to the terrain, and a
+//! window reaching up from the region's lowest layer under-estimated that layer's clutter by
+//! 1.5–2 × (the ground's strong discrete echoes then crossed the threshold far from any building:
+//! the cloud's farthest points). `P(v) = Σ_tx Σ_rx |s(r(v))|²`, the
 //! back-projection of the profiles' power with no phase, is what `|I(v)|²` would hold if every echo
 //! in the range cells through `v` added incoherently: the floor of the data's own sidelobes (a
 //! building's, not the terrain's). A voxel is detected when `|I(v)|² ≥ α·(C(v) + P(v))` with
@@ -81,18 +86,32 @@ pub fn coherence_factor(pfa: f64) -> f32 {
     (1.0 / pfa).ln() as f32
 }
 
-/// The effective number of independent looks of a cube of `window_voxels` voxels of edge
-/// `voxel_m` over a resolution cell of volume `cell_m3`: `V_window / V_cell`, at least 1 and at
-/// most the voxel count (voxels finer than the cell are correlated, coarser ones independent).
-pub fn effective_looks(window_voxels: usize, voxel_m: f32, cell_m3: f32) -> f64 {
-    let v = window_voxels as f64 * (voxel_m as f64).powi(3);
-    (v / (cell_m3 as f64).max(1e-12)).clamp(1.0, window_voxels.max(1) as f64)
+/// The effective number of independent looks of a window of `window_voxels` voxels, each holding
+/// `looks_per_voxel` resolution cells ([`layer_looks_per_voxel`]): at least 1 and at most the
+/// voxel count (voxels finer than the cell are correlated, coarser ones independent).
+pub fn effective_looks(window_voxels: usize, looks_per_voxel: f64) -> f64 {
+    (window_voxels as f64 * looks_per_voxel).clamp(1.0, window_voxels.max(1) as f64)
 }
 
-/// Half-width in voxels of the reference window: the mean resolution cell `cell_m` rounded to
-/// whole voxels, at least one.
-pub fn window_radius(cell_m: f32, voxel_m: f32) -> usize {
-    ((cell_m / voxel_m).round() as usize).max(1)
+/// Half-widths in voxels of the reference window: the voxel's own horizontal layer, two mean
+/// resolution cells `cell_m` on either side (rounded to whole voxels, at least one), one voxel
+/// thick. The terrain's image is stationary along the ground over a few cells but not up the
+/// panel's elevation beam: there it falls from the terrain by the beam's shape, so a window that
+/// reached up from the region's lowest layer averaged weaker layers into that layer's reference
+/// (measured on the suite's factory_site, quick: the bare-terrain image's power in the lowest layer
+/// was 1.5–2.1 × the mean of a ±1-cell cube around it, 0.94–1.04 × the mean of its layer).
+pub fn layer_window(cell_m: f32, voxel_m: f32) -> [usize; 3] {
+    let w = ((2.0 * cell_m / voxel_m).round() as usize).max(1);
+    [w, w, 0]
+}
+
+/// Independent looks per voxel of a layer window: the voxel's area `voxel_m²` over the
+/// resolution cell's horizontal cross-section `cell_m3 / max(cell_vertical_m, voxel_m)` (a cell
+/// taller than the voxel is cut by the layer; one shorter fits in it), at most 1.
+pub fn layer_looks_per_voxel(voxel_m: f32, cell_m3: f32, cell_vertical_m: f32) -> f64 {
+    let v = voxel_m as f64;
+    let section = cell_m3 as f64 / (cell_vertical_m as f64).max(v);
+    (v * v / section.max(1e-12)).min(1.0)
 }
 
 /// The reference of every voxel: the mean of the known voxels around it and how many there were.
@@ -105,10 +124,10 @@ pub struct LocalMean {
     pub count: Vec<f32>,
 }
 
-/// The mean of `power` over the cube of half-width `radius` voxels around every voxel of a
-/// `dims` lattice, counting only known voxels (`power` finite; unknown ones are NaN). A voxel
+/// The mean of `power` over the box around every voxel of a
+/// `dims` lattice (half-width `radius[axis]` along each axis), counting only known voxels (`power` finite; unknown ones are NaN). A voxel
 /// with no known neighbour gets NaN. Separable running sums: `O(voxels)` whatever the radius.
-pub fn local_mean(power: &[f32], dims: [usize; 3], radius: usize) -> LocalMean {
+pub fn local_mean(power: &[f32], dims: [usize; 3], radius: [usize; 3]) -> LocalMean {
     let n = dims[0] * dims[1] * dims[2];
     debug_assert_eq!(power.len(), n);
     let mut sum: Vec<f32> = power
@@ -139,8 +158,8 @@ pub fn local_mean(power: &[f32], dims: [usize; 3], radius: usize) -> LocalMean {
                     prefix.push(acc);
                 }
                 for i in 0..len {
-                    let a = i.saturating_sub(radius);
-                    let b = (i + radius + 1).min(len);
+                    let a = i.saturating_sub(radius[axis]);
+                    let b = (i + radius[axis] + 1).min(len);
                     buf[start + i * stride] = (prefix[b] - prefix[a]) as f32;
                 }
             }
@@ -155,25 +174,22 @@ pub fn local_mean(power: &[f32], dims: [usize; 3], radius: usize) -> LocalMean {
     }
 }
 
-/// Mean-level factors `α` of a reference window of half-width `radius` voxels, by how many of
-/// its voxels are known: a window cut by the region's faces (the lowest layer above the ground,
-/// the region's sides and corners) or by unimaged voxels averages fewer looks, so its mean
-/// fluctuates more and needs a larger factor for the same `pfa` (a corner's window holds 1/8 of
-/// the voxels: at `pfa = 10⁻⁴` and ~12 looks in the full window, α = 14.0 in the full window,
-/// 45 in a corner).
+/// Mean-level factors `α` of a reference window, by how many of its voxels are known: a window
+/// cut by the region's sides and corners or by unimaged voxels averages fewer looks, so its mean
+/// fluctuates more and needs a larger factor for the same `pfa` (a corner's layer window holds
+/// 1/4 of the voxels).
 #[derive(Clone, Debug)]
 pub struct CfarFactors {
     alpha: Vec<f32>,
 }
 
 impl CfarFactors {
-    /// Factors at `pfa` for every count of known voxels of edge `voxel_m` over cells of
-    /// `cell_m3` ([`effective_looks`]).
-    pub fn new(pfa: f64, radius: usize, voxel_m: f32, cell_m3: f32) -> Self {
-        let n = (2 * radius + 1).pow(3);
-        let alpha = (0..=n)
+    /// Factors at `pfa` for every count of known voxels up to `window_voxels`, each voxel worth
+    /// `looks_per_voxel` independent looks ([`effective_looks`]).
+    pub fn new(pfa: f64, window_voxels: usize, looks_per_voxel: f64) -> Self {
+        let alpha = (0..=window_voxels)
             .map(|k| {
-                let looks = effective_looks(k.max(1), voxel_m, cell_m3);
+                let looks = effective_looks(k.max(1), looks_per_voxel);
                 has_dsp::cfar::mean_level_factor(pfa, looks) as f32
             })
             .collect();
@@ -195,7 +211,7 @@ mod tests {
     fn local_mean_of_a_constant_field_is_that_constant_even_at_the_edges() {
         let dims = [5, 4, 3];
         let p = vec![2.5f32; 60];
-        let m = local_mean(&p, dims, 2).mean;
+        let m = local_mean(&p, dims, [2; 3]).mean;
         assert!(m.iter().all(|&x| (x - 2.5).abs() < 1e-6));
     }
 
@@ -213,7 +229,7 @@ mod tests {
             })
             .collect();
         let r = 1usize;
-        let LocalMean { mean: m, count } = local_mean(&p, dims, r);
+        let LocalMean { mean: m, count } = local_mean(&p, dims, [r; 3]);
         for z in 0..dims[2] {
             for y in 0..dims[1] {
                 for x in 0..dims[0] {
@@ -406,8 +422,8 @@ mod tests {
         // factor (what a face or corner voxel got before) far more often.
         use rand::SeedableRng;
         use rand_distr::{Distribution, Exp1};
-        let (pfa, radius, voxel, cell) = (1e-2, 1usize, 1.0f32, 1.0f32);
-        let f = CfarFactors::new(pfa, radius, voxel, cell);
+        let pfa = 1e-2;
+        let f = CfarFactors::new(pfa, 27, 1.0);
         assert!(f.alpha(8.0) > f.alpha(18.0) && f.alpha(18.0) > f.alpha(27.0));
         assert_eq!(f.alpha(0.0), f.alpha(1.0));
         assert_eq!(f.alpha(1e9), f.alpha(27.0));
@@ -431,9 +447,60 @@ mod tests {
     }
 
     #[test]
+    fn the_layer_reference_holds_the_false_alarm_rate_over_the_terrains_elevation_lobe() {
+        // Clutter whose mean falls by 4× per layer up from the terrain (the ground's image up the
+        // panel's elevation beam), homogeneous along the ground; the reference is an independent
+        // realisation (the terrain model). In the lowest layer the layer window's mean crosses at
+        // the design rate; a cube reaching up into weaker layers under-estimates the clutter and
+        // crosses far more often.
+        use rand::SeedableRng;
+        use rand_distr::{Distribution, Exp1};
+        let (pfa, dims) = (1e-2, [48usize, 48, 4]);
+        let mean = |z: usize| 0.25f32.powi(z as i32);
+        let n = dims.iter().product::<usize>();
+        let layer = [2, 2, 0];
+        let cube = [1, 1, 1];
+        let f_layer = CfarFactors::new(pfa, 25, 1.0);
+        let f_cube = CfarFactors::new(pfa, 27, 1.0);
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(11);
+        let (mut hits_layer, mut hits_cube, mut trials) = (0usize, 0usize, 0usize);
+        for _ in 0..24 {
+            let mut draw = || -> Vec<f32> {
+                (0..n)
+                    .map(|i| {
+                        let e: f32 = Exp1.sample(&mut rng);
+                        e * mean(i / (dims[0] * dims[1]))
+                    })
+                    .collect()
+            };
+            let (data, model) = (draw(), draw());
+            let ml = local_mean(&model, dims, layer);
+            let mc = local_mean(&model, dims, cube);
+            for (i, &d) in data.iter().enumerate().take(dims[0] * dims[1]) {
+                trials += 1;
+                hits_layer += (d >= f_layer.alpha(ml.count[i]) * ml.mean[i]) as usize;
+                hits_cube += (d >= f_cube.alpha(mc.count[i]) * mc.mean[i]) as usize;
+            }
+        }
+        let (layer, cube) = (
+            hits_layer as f64 / trials as f64,
+            hits_cube as f64 / trials as f64,
+        );
+        let sd = (pfa * (1.0 - pfa) / trials as f64).sqrt();
+        assert!((layer - pfa).abs() < 5.0 * sd, "layer window: {layer}");
+        assert!(cube > 3.0 * pfa, "cube window: {cube}");
+    }
+
+    #[test]
     fn effective_looks_are_bounded_by_one_and_the_voxel_count() {
-        assert_eq!(effective_looks(27, 0.25, 10.0), 1.0);
-        assert_eq!(effective_looks(27, 1.0, 1e-3), 27.0);
-        assert!((effective_looks(125, 0.5, 1.0) - 15.625).abs() < 1e-9);
+        assert_eq!(effective_looks(27, 0.001), 1.0);
+        assert_eq!(effective_looks(27, 1.0), 27.0);
+        assert!((effective_looks(125, 0.125) - 15.625).abs() < 1e-9);
+        // A 0.25 m layer through a 0.5 × 0.5 × 1.5 m cell: 1/4 look per voxel.
+        assert!((layer_looks_per_voxel(0.25, 0.375, 1.5) - 0.25).abs() < 1e-9);
+        // Voxels coarser than the cell's cross-section are independent looks.
+        assert_eq!(layer_looks_per_voxel(2.0, 0.375, 1.5), 1.0);
+        assert_eq!(layer_window(0.6, 0.25), [5, 5, 0]);
+        assert_eq!(layer_window(0.1, 0.5), [1, 1, 0]);
     }
 }

@@ -40,7 +40,8 @@ use rayon::prelude::*;
 
 use super::config::{Detection, ImagingScenario};
 use super::detection::{
-    alias_is_stronger, coherence_factor, detected, local_mean, window_radius, CfarFactors,
+    alias_is_stronger, coherence_factor, detected, layer_looks_per_voxel, layer_window, local_mean,
+    CfarFactors,
 };
 use super::run::World;
 use super::sensors::{pair_resolution_m, PlanarArray, VirtualAperture};
@@ -424,9 +425,11 @@ pub fn image_pair(
     );
     let cell_m3 = r_res * xv_res * xz_res;
     let cell_m = cell_m3.cbrt();
-    let cfar = |voxel_m: f32, pfa: f64| -> (usize, CfarFactors) {
-        let radius = window_radius(cell_m, voxel_m);
-        (radius, CfarFactors::new(pfa, radius, voxel_m, cell_m3))
+    let cfar = |voxel_m: f32, pfa: f64| -> ([usize; 3], CfarFactors) {
+        let radius = layer_window(cell_m, voxel_m);
+        let voxels = radius.iter().map(|&w| 2 * w + 1).product();
+        let looks = layer_looks_per_voxel(voxel_m, cell_m3, xz_res);
+        (radius, CfarFactors::new(pfa, voxels, looks))
     };
 
     // Thinned arrays and apertures are jittered, not periodic (no grating lobes; see
