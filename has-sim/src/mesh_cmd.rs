@@ -82,7 +82,10 @@ pub struct MeshArgs {
     /// Neighbours for PCA normals.
     #[arg(long, default_value_t = 16)]
     pub k: usize,
-    /// Ignore normals stored in the input and estimate them.
+    /// Estimate the normals (PCA over `--k` neighbours) even when the input stores some; stored
+    /// normals then only orient the new ones (each is turned to agree with its stored normal),
+    /// which re-estimates a sensor-oriented cloud at another scale. Without stored normals the
+    /// orientation is propagated along a minimum spanning tree.
     #[arg(long)]
     pub estimate_normals: bool,
     /// Ground truth (PLY mesh, sampled at `--truth-density`, or PLY point cloud used as is):
@@ -207,7 +210,7 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         input.property("ny"),
         input.property("nz"),
     ) {
-        (Some(x), Some(y), Some(z)) if !a.estimate_normals => Some(
+        (Some(x), Some(y), Some(z)) => Some(
             x.iter()
                 .zip(y)
                 .zip(z)
@@ -217,7 +220,13 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         _ => None,
     };
     let normals = match stored {
-        Some(n) => n,
+        Some(n) if !a.estimate_normals => n,
+        Some(n) => {
+            // A virtual sensor one metre along each stored normal orients the new one.
+            let toward: Vec<Vec3> = points.iter().zip(&n).map(|(&p, &n)| p + n).collect();
+            estimate_normals(&points, a.k, Orientation::Sensors(&toward))
+                .with_context(|| format!("{}: normals", a.input.display()))?
+        }
         None => estimate_normals(&points, a.k, Orientation::Propagate)
             .with_context(|| format!("{}: normals", a.input.display()))?,
     };

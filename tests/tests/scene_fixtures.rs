@@ -123,3 +123,32 @@ fn documented_example_scene_builds() {
     let scene = spec.build().unwrap();
     assert_eq!(scene.objects.len(), 6);
 }
+
+#[test]
+fn the_simulated_ground_is_the_same_when_the_site_is_turned() {
+    // factory_rotated is factory_site turned by 37° about z, its region a turned polygon: every
+    // ground point scatters in one exactly when its turned image does in the other (the disc
+    // around the region's footprint), away from the disc's rim where f32 rounding decides.
+    use has_host::imaging::ImagingScenario;
+    let site = ImagingScenario::load(&fixtures().join("suite/factory_site.toml")).unwrap();
+    let turned = ImagingScenario::load(&fixtures().join("suite/factory_rotated.toml")).unwrap();
+    let (s, c) = 37f32.to_radians().sin_cos();
+    let (mut inside, mut total) = (0, 0);
+    for i in -40..=40 {
+        for j in -40..=40 {
+            let p = Vec3::new(i as f32 * 1.9, j as f32 * 1.9, 0.0);
+            let q = Vec3::new(c * p.x - s * p.y, s * p.x + c * p.y, 0.0);
+            let a = site.scatters_as_ground(p);
+            // The rotated fixture's polygon vertices are rounded to 1 cm.
+            let rim = [0.97f32, 1.03].map(|f| site.scatters_as_ground(p * f));
+            if rim[0] == rim[1] {
+                assert_eq!(a, turned.scatters_as_ground(q), "{p} vs {q}");
+            }
+            inside += a as usize;
+            total += 1;
+        }
+    }
+    // The disc reaches past the region (80 m × 64 m, radius 51.2 m + 10 m margin) but not to
+    // the edge of the test grid (76 m).
+    assert!(inside > total / 3 && inside < total, "{inside} of {total}");
+}

@@ -170,10 +170,19 @@ pub struct ImagingSpec {
     /// (`threshold_db`, `coarse_threshold_db`), which depends on what else is in the region.
     #[serde(default)]
     pub detection: Detection,
-    /// Design probability that a voxel of bare-site clutter or noise is detected (fine pass).
+    /// Design probability that a voxel of bare-site clutter or noise is detected (fine pass), at
+    /// most: the fine pass uses `false_alarms_per_image` over the image's independent resolution
+    /// cells when that is smaller.
     #[serde(default = "default_pfa")]
     pub false_alarm_probability: f64,
-    /// The same for the coarse pass's mask (permissive: it only decides where to look).
+    /// Expected false detections (bare-site clutter and noise) per pair image in the fine pass:
+    /// the per-voxel false-alarm probability is this over the number of resolution cells the
+    /// pass tests (imaged volume / cell volume), so a larger region does not bring more false
+    /// points (`imaging::driver`).
+    #[serde(default = "default_false_alarms_per_image")]
+    pub false_alarms_per_image: f64,
+    /// The same for the coarse pass's mask, per coarse voxel (permissive: it only decides where
+    /// the fine pass looks; each detection opens its 3 × 3 × 3 neighbourhood).
     #[serde(default = "default_mask_pfa")]
     pub mask_false_alarm_probability: f64,
     /// With `detection = "clutter"`: a voxel must also be focused by each of the pair's two
@@ -205,11 +214,12 @@ pub struct ImagingSpec {
     /// Objects treated as ground (clutter, not imaged as the target).
     #[serde(default)]
     pub ground_objects: Vec<String>,
-    /// Scatterers per m² on ground objects; only inside the imaging region's footprint grown by
-    /// `ground_margin_m`.
+    /// Scatterers per m² on ground objects; only inside the disc around the region's footprint
+    /// that reaches `ground_margin_m` past its farthest corner
+    /// ([`ImagingScenario::scatters_as_ground`]).
     #[serde(default = "default_ground_density")]
     pub ground_density_per_m2: f64,
-    /// Margin around the region's footprint where ground scatters, metres.
+    /// How far past the region footprint's farthest corner the ground scatters, metres.
     #[serde(default = "default_ground_margin")]
     pub ground_margin_m: f32,
     /// Objects whose surfaces are the ground truth (the building).
@@ -303,6 +313,9 @@ fn default_threshold_db() -> f32 {
 }
 fn default_pfa() -> f64 {
     1e-4
+}
+fn default_false_alarms_per_image() -> f64 {
+    1.0
 }
 fn default_mask_pfa() -> f64 {
     0.1
@@ -604,6 +617,7 @@ impl ImagingScenario {
                 return Err(invalid(f, v, "a probability in (0, 1)"));
             }
         }
+        check_positive("imaging.false_alarms_per_image", im.false_alarms_per_image)?;
         check_positive("imaging.voxel_m", im.voxel_m as f64)?;
         check_positive("imaging.coarse_voxel_m", im.coarse_voxel_m as f64)?;
         for (f, v) in [
@@ -740,6 +754,32 @@ impl ImagingScenario {
             None => true,
             Some(poly) => point_in_polygon(poly, p.x, p.y),
         }
+    }
+
+    /// Whether a ground point at `p` scatters in the simulated world: inside the disc centred on
+    /// the region footprint's vertex mean (the polygon's, else the box's four corners) whose
+    /// radius reaches `ground_margin_m` past the farthest vertex. A disc, so that the world's
+    /// ground is the same whichever way the site and its region are turned (the region's
+    /// axis-aligned box grown by the margin held 1.7 × the ground of the unrotated factory site
+    /// for the site turned by 37°, and its larger range-bin power hid roof detections).
+    pub fn scatters_as_ground(&self, p: Vec3) -> bool {
+        let (lo, hi) = self.region();
+        let corners = [[lo.x, lo.y], [hi.x, lo.y], [hi.x, hi.y], [lo.x, hi.y]];
+        let footprint: &[[f32; 2]] = match &self.imaging.region_polygon {
+            Some(poly) => poly,
+            None => &corners,
+        };
+        let n = footprint.len().max(1) as f32;
+        let c = footprint
+            .iter()
+            .fold(glam::Vec2::ZERO, |a, v| a + glam::Vec2::from(*v))
+            / n;
+        let r = footprint
+            .iter()
+            .map(|v| glam::Vec2::from(*v).distance(c))
+            .fold(0.0f32, f32::max)
+            + self.imaging.ground_margin_m;
+        glam::Vec2::new(p.x, p.y).distance_squared(c) <= r * r
     }
 
     /// Whether the axis-aligned box `[lo, hi]` touches the imaging region (conservative: true

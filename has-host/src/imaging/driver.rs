@@ -12,9 +12,10 @@
 //! 2. **Fine pass**: the region on the fine grid (`imaging.voxel_m`), cut into bricks of
 //!    [`BRICK`]³ voxels; only bricks that touch the mask are imaged, each its own has-dsp voxel grid
 //!    (positions relative to the brick origin, so `f32` keeps phase accuracy), all bricks updated
-//!    in parallel (rayon) from the same snapshot. Voxels are detected at
-//!    `false_alarm_probability` against the bare-terrain prediction, imaged alongside from the
-//!    terrain model's echoes with the same noise variance ([`super::detection`]).
+//!    in parallel (rayon) from the same snapshot. Voxels are detected against the bare-terrain
+//!    prediction, imaged alongside from the terrain model's echoes with the same noise variance
+//!    ([`super::detection`]), at `false_alarms_per_image` expected false detections over the
+//!    resolution cells the pass tests (at most `false_alarm_probability` per voxel).
 //!
 //! Only bricks and points inside the region (its `region_polygon`, if any) are imaged.
 //!
@@ -40,8 +41,8 @@ use rayon::prelude::*;
 
 use super::config::{Detection, ImagingScenario};
 use super::detection::{
-    alias_is_stronger, coherence_factor, detected, layer_looks_per_voxel, layer_window, local_mean,
-    CfarFactors,
+    alias_is_stronger, coherence_factor, detected, image_false_alarm_probability,
+    layer_looks_per_voxel, layer_window, local_mean, CfarFactors,
 };
 use super::run::World;
 use super::sensors::{pair_resolution_m, PlanarArray, VirtualAperture};
@@ -132,6 +133,9 @@ pub struct PairStats {
     pub bp_s: f64,
     /// Pulse-table error bound of the echo synthesis (relative to the peak).
     pub pulse_error: f32,
+    /// Per-voxel false-alarm probability of the fine pass's detection test
+    /// (`imaging.false_alarms_per_image` over its resolution cells; 0 without the clutter test).
+    pub false_alarm_probability: f64,
 }
 
 /// Per-pair constants derived from the scenario.
@@ -502,7 +506,7 @@ pub fn image_pair(
             if let Some(m) = model.as_mut() {
                 m.noise_var = src.noise_var;
                 m.frame(usize::MAX - f, tx, &rx_coarse, &mut mprof)?;
-                power_of(&prof, &mut iprof);
+                excess_power_of(&prof, &mprof, &mut iprof);
             }
             let t = Instant::now();
             let snap = Snapshot {
@@ -693,7 +697,7 @@ pub fn image_pair(
             if let Some(m) = model.as_mut() {
                 m.noise_var = src.noise_var;
                 m.frame(f, tx, &rx_fine, &mut mprof)?;
-                power_of(&prof, &mut iprof);
+                excess_power_of(&prof, &mprof, &mut iprof);
             }
             if coherence {
                 for (e, p) in prof.chunks_exact(nb).enumerate() {
@@ -789,8 +793,18 @@ pub fn image_pair(
     let detected: Vec<bool> = if clutter_ref {
         // The predicted bare-terrain power's local mean on the region lattice (NaN where no brick
         // was imaged), then the CFAR test voxel by voxel.
-        let (radius, alpha) = cfar(v, im.false_alarm_probability);
-        let beta = coherence_factor(im.false_alarm_probability);
+        // The per-voxel false-alarm probability: the stated false detections per image over
+        // the resolution cells this pass tests, at most `false_alarm_probability`.
+        let pfa = image_false_alarm_probability(
+            im.false_alarms_per_image,
+            offset,
+            v,
+            cell_m3,
+            im.false_alarm_probability,
+        );
+        stats.false_alarm_probability = pfa;
+        let (radius, alpha) = cfar(v, pfa);
+        let beta = coherence_factor(pfa);
         let mut pm = vec![f32::NAN; stats.region_voxels];
         let gidx = |b: &Brick, i: usize| {
             let d = b.bp.grid().dims;
@@ -891,11 +905,12 @@ fn push_bricks_f32(
         })
 }
 
-/// `out[i] = |p[i]|²` (as a real-valued complex profile, for the incoherent pass).
-fn power_of(p: &[Complex32], out: &mut [Complex32]) {
+/// `out[i] = |p[i]|² − |m[i]|²` (as a real-valued complex profile, for the incoherent pass): the
+/// power of the data's profile `p` beyond the terrain model's `m` ([`super::detection`]).
+fn excess_power_of(p: &[Complex32], m: &[Complex32], out: &mut [Complex32]) {
     out.par_iter_mut()
-        .zip(p.par_iter())
-        .for_each(|(o, z)| *o = Complex32::new(z.norm_sqr(), 0.0));
+        .zip(p.par_iter().zip(m.par_iter()))
+        .for_each(|(o, (z, w))| *o = Complex32::new(z.norm_sqr() - w.norm_sqr(), 0.0));
 }
 
 /// Accumulators over `img` in tiles of `tile` voxels of the coarse grid `bp`.

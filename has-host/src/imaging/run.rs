@@ -188,8 +188,6 @@ pub fn build_world(sc: &ImagingScenario) -> Result<World, RunError> {
         .iter()
         .map(|o| sc.imaging.ground_objects.contains(&o.name))
         .collect();
-    let (lo, hi) = sc.region();
-    let m = sc.imaging.ground_margin_m;
     let ig = is_ground.clone();
     let mut set = ScattererSet::sample_where(
         &scene,
@@ -202,13 +200,7 @@ pub fn build_world(sc: &ImagingScenario) -> Result<World, RunError> {
         &scene,
         sc.imaging.ground_density_per_m2,
         sc.imaging.seed.wrapping_add(1),
-        |o, p| {
-            ig[o as usize]
-                && p.x >= lo.x - m
-                && p.x <= hi.x + m
-                && p.y >= lo.y - m
-                && p.y <= hi.y + m
-        },
+        |o, p| ig[o as usize] && sc.scatters_as_ground(p),
     )?;
     set.points.extend(ground.points);
     let terrain = terrain_model(sc, &scene, &is_ground)?;
@@ -264,13 +256,11 @@ fn terrain_model(
         });
     }
     let tscene = Scene::new(ground).map_err(crate::scenario::SceneSpecError::from)?;
-    let (lo, hi) = sc.region();
-    let m = sc.imaging.ground_margin_m;
     let scatterers = ScattererSet::sample_where(
         &tscene,
         sc.imaging.ground_density_per_m2,
         sc.imaging.seed ^ TERRAIN_MODEL_SEED,
-        |_, p| p.x >= lo.x - m && p.x <= hi.x + m && p.y >= lo.y - m && p.y <= hi.y + m,
+        |_, p| sc.scatters_as_ground(p),
     )?;
     Ok(Terrain {
         scene: tscene,
