@@ -203,6 +203,18 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         (None, None) => None,
     };
     let input = ply::read_ply(&a.input)?;
+    // The ground truth is read before any work, so a bad `--truth` leaves no mesh behind.
+    let truth = match &a.truth {
+        Some(p) => {
+            let t = ply::read_ply(p)?;
+            Some(if t.faces.is_empty() {
+                t.vertices
+            } else {
+                has_host::metrics::sample_triangles(&t.triangles(), a.truth_density, 1)?
+            })
+        }
+        None => None,
+    };
     let points = input.vertices.clone();
     let t0 = Instant::now();
     let stored = match (
@@ -306,17 +318,6 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         "peak_rss_after_poisson_mib": peak_rss_poisson,
         "time_s": {"normals": normals_s, "solve": out.solve_s, "extract": out.extract_s, "poisson_total": poisson_s},
     });
-    let truth = match &a.truth {
-        Some(p) => {
-            let t = ply::read_ply(p)?;
-            Some(if t.faces.is_empty() {
-                t.vertices
-            } else {
-                has_host::metrics::sample_triangles(&t.triangles(), a.truth_density, 1)?
-            })
-        }
-        None => None,
-    };
     if let Some(truth) = &truth {
         let cloud = metrics_json(&points, truth)?;
         let s1 = mesh.sample(a.truth_density, 2)?;
@@ -343,7 +344,8 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         report["poisson_reconstruction_crate"] = c;
     }
     if let Some(r) = &a.report {
-        std::fs::write(r, serde_json::to_string_pretty(&report)? + "\n")
+        let text = serde_json::to_string_pretty(&report)? + "\n";
+        has_host::io::atomic_write(r, |w| std::io::Write::write_all(w, text.as_bytes()))
             .with_context(|| format!("{}: writing report", r.display()))?;
     }
     Ok(())

@@ -112,4 +112,21 @@ fn mesh_command_rejects_bad_input_with_a_named_error() {
         "12",
     ]);
     assert!(!ok && err.contains("depth"), "{err}");
+    // A missing ground truth is found before any work: no mesh is written.
+    let good = d.join("sphere.ply");
+    ply::write_ply(&good, &PlyData::from_points(sphere(500)), PlyFormat::Ascii).unwrap();
+    let obj = d.join("sphere.obj");
+    let (ok, _, err) = has_sim(&[
+        "mesh",
+        good.to_str().unwrap(),
+        "--out",
+        obj.to_str().unwrap(),
+        "--depth",
+        "4",
+        "--truth",
+        "/nonexistent/truth.ply",
+    ]);
+    assert!(!ok && err.contains("/nonexistent/truth.ply"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+    assert!(!obj.exists());
 }

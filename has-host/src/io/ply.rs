@@ -482,8 +482,12 @@ pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<PlyData, MeshIoError> {
                         k != ix && k != iy && k != iz && matches!(el.props[k], Prop::Scalar(..))
                     })
                     .collect();
-                out.vertices.reserve(el.count);
-                let mut cols: Vec<Vec<f32>> = vec![Vec::with_capacity(el.count); extra.len()];
+                // Every instance takes at least one byte of the body: a header that declares
+                // more (4·10⁹ vertices in a 150-byte file) reserves no more than the body can
+                // hold, and the read stops with an error where the body ends.
+                let cap = el.count.min(body_bytes.len());
+                out.vertices.reserve(cap);
+                let mut cols: Vec<Vec<f32>> = vec![Vec::with_capacity(cap); extra.len()];
                 for i in 0..el.count {
                     body.instance(el, i, None, &mut values, &mut list, path)?;
                     for (k, axis) in [(ix, "x"), (iy, "y"), (iz, "z")] {
@@ -526,7 +530,7 @@ pub fn parse_ply(bytes: &[u8], path: &Path) -> Result<PlyData, MeshIoError> {
                         el_err(0, "no list property 'vertex_indices' or 'vertex_index'".into())
                     })?;
                 let nv = out.vertices.len();
-                out.faces.reserve(el.count);
+                out.faces.reserve(el.count.min(body_bytes.len()));
                 for i in 0..el.count {
                     body.instance(el, i, Some(k), &mut values, &mut list, path)?;
                     if list.len() < 3 {
@@ -820,6 +824,29 @@ mod tests {
         let e = write_ply(&p, &s, PlyFormat::Ascii).unwrap_err().to_string();
         assert!(e.contains("'x' is given twice"), "{e}");
         assert!(!p.exists());
+    }
+
+    #[test]
+    fn a_header_declaring_more_elements_than_the_body_holds_is_an_error_not_an_allocation() {
+        // 4·10⁹ vertices (48 GB as f32 triples) declared in a 150-byte file: before, the reader
+        // reserved the declared count and the process aborted.
+        let d = tmp_dir("ply-huge");
+        for (fmt, body) in [
+            ("binary_little_endian", &[0u8; 24][..]),
+            ("ascii", &b"1 2 3\n4 5 6\n"[..]),
+        ] {
+            let p = d.join(format!("{fmt}.ply"));
+            let mut bytes = format!(
+                "ply\nformat {fmt} 1.0\nelement vertex 4000000000\nproperty float x\n\
+                 property float y\nproperty float z\nend_header\n"
+            )
+            .into_bytes();
+            bytes.extend_from_slice(body);
+            std::fs::write(&p, bytes).unwrap();
+            let e = read_ply(&p).unwrap_err().to_string();
+            assert!(e.contains("vertex"), "{fmt}: {e}");
+            assert_eq!(e.lines().count(), 1, "{fmt}: {e}");
+        }
     }
 
     #[test]

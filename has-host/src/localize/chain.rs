@@ -589,7 +589,10 @@ impl Chain {
             }
         }
         let mut power = vec![0.0f32; nb * nd * beams];
-        let energy: f64 = power
+        // Per-bin energies are collected in bin order and summed sequentially: a parallel
+        // reduction's association depends on the thread count, and so did the last bits of the
+        // cancellation it feeds.
+        let energies: Vec<f64> = power
             .par_chunks_mut(nd * beams)
             .enumerate()
             .map(|(b, out)| -> Result<f64, DspError> {
@@ -650,8 +653,9 @@ impl Chain {
                 }
                 Ok(energy)
             })
-            .try_reduce(|| 0.0, |a, b| Ok(a + b))
+            .collect::<Result<_, _>>()
             .map_err(dsp("frame processing"))?;
+        let energy = energies.iter().sum();
         Ok(Cube { power, energy })
     }
 
@@ -855,6 +859,25 @@ mod tests {
             chain.compress(&y, &mut profile, row).unwrap();
         }
         let cube = chain.process(&frame, Suppression::None).unwrap();
+        // The same bits at one thread as at two, with range bins 2⁰…2⁴⁰ apart in amplitude so
+        // that the f64 sum over bins rounds (the energy was a parallel reduction whose
+        // association followed the thread count).
+        let scaled: Vec<C32> = frame
+            .iter()
+            .enumerate()
+            .map(|(i, v)| v * 2f32.powi(((i % chain.nb) * 7 % 41) as i32))
+            .collect();
+        let at = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| chain.process(&scaled, Suppression::None).unwrap())
+        };
+        let (one, two) = (at(1), at(2));
+        assert!(one.energy.is_finite());
+        assert_eq!(one.energy.to_bits(), two.energy.to_bits());
+        assert!(one.power == two.power);
         let cells = chain.nb * chain.beams() * chain.nd;
         let det = chain.detect(&cube, None).unwrap();
         assert!(
