@@ -157,12 +157,6 @@ fn mesh_stage(
         depth_for_cell, reconstruct, visibility_consistent, Orientation, PoissonParams,
         ReconstructParams, Trim,
     };
-    if !(args.mesh_trim_median > 0.0 && args.mesh_trim_median <= 1.0) {
-        anyhow::bail!(
-            "--mesh-trim-median: {} is not a fraction in (0, 1]",
-            args.mesh_trim_median
-        );
-    }
     let t = Instant::now();
     let sensors = imaging::observing_sensors(sc, &result.plans, &result.fused);
     let padding = PoissonParams::default().padding;
@@ -299,12 +293,40 @@ pub fn build_twin(scenario: Option<PathBuf>, out: &Path, quick: bool) -> Result<
     Ok(out.join("mesh.obj"))
 }
 
+/// Checks the options that only the later stages use, so that a bad value fails before the
+/// imaging rather than after it.
+fn check_args(args: &ReconstructArgs) -> Result<()> {
+    if !(args.mesh_trim_median > 0.0 && args.mesh_trim_median <= 1.0) {
+        anyhow::bail!(
+            "--mesh-trim-median: {} is not a fraction in (0, 1]",
+            args.mesh_trim_median
+        );
+    }
+    if let Some(d) = args.mesh_depth {
+        if !(1..=10).contains(&d) {
+            anyhow::bail!("--mesh-depth: {d} is not in 1..=10");
+        }
+    }
+    Ok(())
+}
+
+/// Creates the output directory and proves it writable with a probe file (removed again), so
+/// that an unwritable `--out` fails before any work.
+fn prepare_out_dir(out: &Path) -> Result<()> {
+    std::fs::create_dir_all(out).with_context(|| format!("--out: creating {}", out.display()))?;
+    let probe = out.join(format!(".has-sim-write-probe.{}", std::process::id()));
+    std::fs::write(&probe, b"")
+        .with_context(|| format!("--out: {} is not writable", out.display()))?;
+    std::fs::remove_file(&probe).ok();
+    Ok(())
+}
+
 /// Runs the command.
 pub fn run(args: ReconstructArgs) -> Result<()> {
     let t0 = Instant::now();
+    check_args(&args)?;
     let (sc, scenario_name) = load(&args)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    prepare_out_dir(&args.out)?;
     let world = imaging::build_world(&sc)?;
     let plans = imaging::plan_pairs(&sc, &world)?;
     let t_setup = t0.elapsed().as_secs_f64();

@@ -102,3 +102,44 @@ fn malformed_scenario_fails_with_one_line_naming_the_field() {
     assert!(err.contains("base_stations[0].position"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn options_of_later_stages_and_the_output_directory_fail_before_any_work() {
+    // A bad mesh option or an unwritable --out used to fail only after the imaging, leaving
+    // result files behind; now the run stops first, with one line naming the option.
+    let dir = common::out_dir("reconstruct-late");
+    std::fs::create_dir_all(&dir).unwrap();
+    let run = |args: &[&str], out: &std::path::Path| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_has-sim"))
+            .args(["reconstruct", "--quick"])
+            .args(args)
+            .arg("--out")
+            .arg(out)
+            .output()
+            .expect("has-sim runs");
+        (
+            o.status.success(),
+            String::from_utf8_lossy(&o.stderr).into_owned(),
+        )
+    };
+    for (args, field) in [
+        (&["--mesh-depth", "0"][..], "--mesh-depth"),
+        (&["--mesh-depth", "99"][..], "--mesh-depth"),
+        (&["--mesh-trim-median", "NaN"][..], "--mesh-trim-median"),
+    ] {
+        let out = dir.join("out");
+        let (ok, err) = run(args, &out);
+        assert!(!ok, "{args:?}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains(field), "{err}");
+        assert!(!out.join("fused.ply").exists() && !out.join("report.json").exists());
+    }
+    // --out below a regular file cannot be created.
+    let file = dir.join("a-file");
+    std::fs::write(&file, b"x").unwrap();
+    let (ok, err) = run(&[], &file.join("out"));
+    assert!(!ok);
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    assert!(err.contains("--out"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
