@@ -200,8 +200,18 @@ fn csv_line(
 pub fn run(args: ChannelArgs) -> Result<()> {
     let t0 = Instant::now();
     let (sc, spec, scenario_name) = load(&args)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    let run_dir = crate::run_dir::RunDir::start(
+        &args.out,
+        &[
+            "report.json",
+            "report.md",
+            "errors.csv",
+            "ues.csv",
+            "cdf_delay.svg",
+            "cdf_angles.svg",
+            "ue_map.svg",
+        ],
+    )?;
     let fc = sc.radar.fc_hz_checked()?;
 
     let t = Instant::now();
@@ -545,7 +555,7 @@ pub fn run(args: ChannelArgs) -> Result<()> {
         wall,
         args.out.display()
     );
-    Ok(())
+    run_dir.finish()
 }
 
 /// One line per UE: position, kept, strongest true path, windowed path counts, beams.

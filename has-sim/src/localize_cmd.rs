@@ -81,8 +81,21 @@ fn write_points(path: &Path, points: Vec<Vec3>, props: Vec<(&str, Vec<f32>)>) ->
 pub fn run(args: LocalizeArgs) -> Result<()> {
     let t0 = Instant::now();
     let (sc, spec, scenario_name) = load(&args)?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    let run_dir = crate::run_dir::RunDir::start(
+        &args.out,
+        &[
+            "report.json",
+            "report.md",
+            "truth.ply",
+            "detections_eca.ply",
+            "detections_env.ply",
+            "detections_eca_top.svg",
+            "detections_env_top.svg",
+            "detections_top.svg",
+            "detections_side.svg",
+            "rd_*.svg",
+        ],
+    )?;
     let scene = sc.scene.build()?;
     let (twin_name, twin, twin_built_s) = if args.truth_twin {
         let objects: Vec<_> = scene
@@ -210,7 +223,7 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
         improvement.map_or("—".to_string(), |p| format!("{p:.1} %")),
     );
     println!("wall {:.1} s; report in {}", wall, args.out.display());
-    Ok(())
+    run_dir.finish()
 }
 
 fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -> Result<()> {

@@ -19,6 +19,7 @@ mod paths_cmd;
 mod plot;
 mod reconstruct_cmd;
 mod resources;
+mod run_dir;
 mod scene_cmd;
 mod suite_cmd;
 

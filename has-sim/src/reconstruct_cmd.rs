@@ -310,23 +310,28 @@ fn check_args(args: &ReconstructArgs) -> Result<()> {
     Ok(())
 }
 
-/// Creates the output directory and proves it writable with a probe file (removed again), so
-/// that an unwritable `--out` fails before any work.
-fn prepare_out_dir(out: &Path) -> Result<()> {
-    std::fs::create_dir_all(out).with_context(|| format!("--out: creating {}", out.display()))?;
-    let probe = out.join(format!(".has-sim-write-probe.{}", std::process::id()));
-    std::fs::write(&probe, b"")
-        .with_context(|| format!("--out: {} is not writable", out.display()))?;
-    std::fs::remove_file(&probe).ok();
-    Ok(())
-}
+/// The files `reconstruct` writes into its output directory ([`crate::run_dir`]).
+pub const OUTPUTS: [&str; 12] = [
+    "report.json",
+    "report.md",
+    "fused.ply",
+    "pair_*.ply",
+    "ground_truth.ply",
+    "mesh.obj",
+    "mesh.ply",
+    "mesh_input.ply",
+    "fused_top.svg",
+    "fused_side.svg",
+    "mesh_top.svg",
+    "mesh_side.svg",
+];
 
 /// Runs the command.
 pub fn run(args: ReconstructArgs) -> Result<()> {
     let t0 = Instant::now();
     check_args(&args)?;
     let (sc, scenario_name) = load(&args)?;
-    prepare_out_dir(&args.out)?;
+    let run_dir = crate::run_dir::RunDir::start(&args.out, &OUTPUTS)?;
     let world = imaging::build_world(&sc)?;
     let plans = imaging::plan_pairs(&sc, &world)?;
     let t_setup = t0.elapsed().as_secs_f64();
@@ -508,7 +513,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
         wall,
         args.out.display()
     );
-    Ok(())
+    run_dir.finish()
 }
 
 fn report_md(r: &serde_json::Value, cmp: &CloudComparison) -> Result<String> {

@@ -45,6 +45,8 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
     // (1.99 m here, issue 13) it measured 0.996 m / 93.3.
     assert!(mesh_f >= 92.5, "mesh F-score(1.5 m) {mesh_f}");
     assert_eq!(mesh["manifold"].as_bool(), Some(true));
+    // A finished run leaves no marker of an unfinished one (has-sim's run_dir).
+    assert!(!out.join("RUNNING").exists());
     common::assert_outputs(
         &out,
         &[
