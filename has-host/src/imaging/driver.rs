@@ -4,11 +4,16 @@
 //!
 //! Two passes keep the work proportional to the surfaces rather than to the whole volume:
 //!
-//! 1. **Coarse pass**: the region on a coarse grid (`imaging.coarse_voxel_m`) from a thinned data
-//!    set (every `coarse_step`-th element and position); voxels detected at
+//! Each frame is synthesised once and kept (the data's and the terrain model's profiles) for
+//! both passes and the receive-coherence pass.
+//!
+//! 1. **Coarse pass**: the region on a coarse grid (`imaging.coarse_voxel_m`) from the fine pass's
+//!    frames (every `coarse_step`-th element and position; default all, so a surface the fine
+//!    pass detects has the same processing gain here); voxels detected at
 //!    `mask_false_alarm_probability` against the bare-terrain prediction ([`super::detection`]),
 //!    dilated by one coarse voxel, form the mask (with `detection = "peak"`: voxels within
-//!    `coarse_threshold_db` of the coarse peak).
+//!    `coarse_threshold_db` of the coarse peak). The coarse grid costs (fine / coarse voxel)³ less
+//!    per frame than the fine one.
 //! 2. **Fine pass**: the region on the fine grid (`imaging.voxel_m`), cut into bricks of
 //!    [`BRICK`]³ voxels; only bricks that touch the mask are imaged, each its own has-dsp voxel grid
 //!    (positions relative to the brick origin, so `f32` keeps phase accuracy), all bricks updated
@@ -145,12 +150,24 @@ struct PairGeometry {
     r0_m: f64,
     dr_m: f64,
     n_bins: usize,
+    /// Volume of the pair's resolution cell at the region centre, m³.
+    cell_m3: f32,
+    /// Its vertical extent, m.
+    cell_vertical_m: f32,
 }
 
 fn pair_geometry(sc: &ImagingScenario, plan: &PairPlan) -> PairGeometry {
     let array = sc.array(plan.bs);
     let aperture = sc.aperture(plan.aperture, plan.positions);
     let (lo, hi) = sc.region();
+    let (r_res, xv_res, _, xz_res) = pair_resolution_m(
+        (lo + hi) * 0.5,
+        &array,
+        &aperture,
+        sc.wavelength_m() as f32,
+        (sc.radar.bandwidth_mhz * 1e6) as f32,
+    );
+    let cell_m3 = r_res * xv_res * xz_res;
     let dr =
         has_dsp::geometry::C_M_PER_S / (sc.radar.bandwidth_mhz * 1e6 * sc.radar.zero_pad as f64);
     // Bistatic range is convex in the point, so over the box its maximum is at a corner; its
@@ -182,23 +199,28 @@ fn pair_geometry(sc: &ImagingScenario, plan: &PairPlan) -> PairGeometry {
         r0_m: i0 * dr,
         dr_m: dr,
         n_bins,
+        cell_m3,
+        cell_vertical_m: xz_res,
     }
 }
 
-/// Bytes of the data's frames that the receive-coherence pass holds for `plan` (every thinned
-/// element × transmit position × profile bin, 8 B each; 0 without the test).
+/// Bytes of the frames a pair's imaging holds for `plan`: every thinned element × transmit
+/// position × profile bin, 8 B each, for the data and (with `detection = "clutter"`) the terrain
+/// model.
 pub fn held_frames_bytes(sc: &ImagingScenario, plan: &PairPlan) -> u64 {
     let im = &sc.imaging;
-    if im.detection != Detection::Clutter || !im.coherence_test {
-        return 0;
-    }
+    let copies = if im.detection == Detection::Clutter {
+        2
+    } else {
+        1
+    };
     let geo = pair_geometry(sc, plan);
     let step = im.element_step.max(1);
     let rx = geo.array.rows.div_ceil(step) as u64 * geo.array.cols.div_ceil(step) as u64;
     let tx = plan.positions.div_ceil(im.position_step.max(1)) as u64;
     rx.saturating_mul(tx)
         .saturating_mul(geo.n_bins as u64)
-        .saturating_mul(8)
+        .saturating_mul(8 * copies)
 }
 
 /// Adds complex white Gaussian noise of power `var` to `rows` (one row per element), seeded per
@@ -420,14 +442,7 @@ pub fn image_pair(
         None
     };
     // Reference window and CFAR factors from the pair's resolution cell at the region centre.
-    let (r_res, xv_res, _, xz_res) = pair_resolution_m(
-        (lo + hi) * 0.5,
-        &geo.array,
-        &geo.aperture,
-        lambda as f32,
-        (sc.radar.bandwidth_mhz * 1e6) as f32,
-    );
-    let cell_m3 = r_res * xv_res * xz_res;
+    let (cell_m3, xz_res) = (geo.cell_m3, geo.cell_vertical_m);
     let cell_m = cell_m3.cbrt();
     let cfar = |voxel_m: f32, pfa: f64| -> ([usize; 3], CfarFactors) {
         let radius = layer_window(cell_m, voxel_m);
@@ -443,19 +458,21 @@ pub fn image_pair(
     let tx_fine = geo
         .aperture
         .positions_jittered(im.position_step, thin_seed ^ 1);
-    let rx_coarse = geo
-        .array
-        .elements_jittered(im.element_step * im.coarse_step, thin_seed ^ 2);
-    let tx_coarse = geo
-        .aperture
-        .positions_jittered(im.position_step * im.coarse_step, thin_seed ^ 3);
-    let total =
-        (tx_fine.len() + tx_coarse.len()) as u64 + if coherence { rx_fine.len() as u64 } else { 0 };
+    // The coarse pass reads every `coarse_step`-th of the fine pass's thinned element rows and
+    // columns and transmit positions, from the same frames: each frame is synthesised once.
+    let cs = im.coarse_step.max(1);
+    let (nt, ne, nb) = (tx_fine.len(), rx_fine.len(), geo.n_bins);
+    let cols = geo.array.cols.div_ceil(im.element_step.max(1));
+    let rx_c_idx: Vec<usize> = (0..ne)
+        .filter(|&e| (e / cols).is_multiple_of(cs) && (e % cols).is_multiple_of(cs))
+        .collect();
+    let tx_c_idx: Vec<usize> = (0..nt).step_by(cs).collect();
+    let total = (2 * nt + tx_c_idx.len()) as u64 + if coherence { ne as u64 } else { 0 };
     let mut done = 0u64;
     let mut stats = PairStats {
-        frames: tx_fine.len(),
-        elements: rx_fine.len(),
-        profile_bins: geo.n_bins,
+        frames: nt,
+        elements: ne,
+        profile_bins: nb,
         pulse_error,
         ..PairStats::default()
     };
@@ -479,6 +496,45 @@ pub fn image_pair(
         phase: PhaseEval::Poly,
     };
 
+    // ---- The frames: the data's element-major (the receive-coherence pass reads one element's
+    // profiles over every transmit position), the terrain model's frame-major.
+    let mut frames = vec![Complex32::new(0.0, 0.0); nt * ne * nb];
+    let mut mframes = vec![Complex32::new(0.0, 0.0); if clutter_ref { nt * ne * nb } else { 0 }];
+    {
+        let mut prof = vec![Complex32::new(0.0, 0.0); ne * nb];
+        for (f, &tx) in tx_fine.iter().enumerate() {
+            src.frame(f, tx, &rx_fine, &mut prof)?;
+            for (e, p) in prof.chunks_exact(nb).enumerate() {
+                frames[(e * nt + f) * nb..(e * nt + f + 1) * nb].copy_from_slice(p);
+            }
+            if let Some(m) = model.as_mut() {
+                m.noise_var = src.noise_var;
+                m.frame(
+                    f,
+                    tx,
+                    &rx_fine,
+                    &mut mframes[f * ne * nb..(f + 1) * ne * nb],
+                )?;
+            }
+            done += 1;
+            progress(done, total);
+        }
+    }
+    // Frame `f`'s profiles of the elements `elems`, data and terrain model, into `out`, `mout`.
+    let gather = |f: usize,
+                  elems: &mut dyn Iterator<Item = usize>,
+                  out: &mut [Complex32],
+                  mout: &mut [Complex32]| {
+        for (k, e) in elems.enumerate() {
+            out[k * nb..(k + 1) * nb]
+                .copy_from_slice(&frames[(e * nt + f) * nb..(e * nt + f + 1) * nb]);
+            if !mout.is_empty() {
+                mout[k * nb..(k + 1) * nb]
+                    .copy_from_slice(&mframes[(f * ne + e) * nb..(f * ne + e + 1) * nb]);
+            }
+        }
+    };
+
     // ---- Coarse pass: the mask.
     let cv = im.coarse_voxel_m;
     let cdims = dims_of(lo, hi, cv);
@@ -492,8 +548,8 @@ pub fn image_pair(
     let mut cimg = vec![Complex32::new(0.0, 0.0); cbp.voxels()];
     let mut cimg_m = vec![Complex32::new(0.0, 0.0); if clutter_ref { cbp.voxels() } else { 0 }];
     let mut cimg_i = vec![Complex32::new(0.0, 0.0); if clutter_ref { cbp.voxels() } else { 0 }];
-    let rx_c_local: Vec<Vec3> = rx_coarse.iter().map(|&p| cgrid.local(p)).collect();
-    let mut prof = vec![Complex32::new(0.0, 0.0); rx_coarse.len() * geo.n_bins];
+    let rx_c_local: Vec<Vec3> = rx_c_idx.iter().map(|&e| cgrid.local(rx_fine[e])).collect();
+    let mut prof = vec![Complex32::new(0.0, 0.0); rx_c_idx.len() * nb];
     let mut mprof = vec![Complex32::new(0.0, 0.0); if clutter_ref { prof.len() } else { 0 }];
     let mut iprof = mprof.clone();
     let tile = cimg.len().div_ceil(rayon::current_num_threads() * 4).max(1);
@@ -501,19 +557,17 @@ pub fn image_pair(
         let mut accs = coarse_tiles(&cbp, &mut cimg, tile)?;
         let mut accs_m = coarse_tiles(&cbp, &mut cimg_m, tile)?;
         let mut accs_i = coarse_tiles(&cbp_inc, &mut cimg_i, tile)?;
-        for (f, &tx) in tx_coarse.iter().enumerate() {
-            src.frame(usize::MAX - f, tx, &rx_coarse, &mut prof)?;
-            if let Some(m) = model.as_mut() {
-                m.noise_var = src.noise_var;
-                m.frame(usize::MAX - f, tx, &rx_coarse, &mut mprof)?;
+        for &f in &tx_c_idx {
+            gather(f, &mut rx_c_idx.iter().copied(), &mut prof, &mut mprof);
+            if clutter_ref {
                 excess_power_of(&prof, &mprof, &mut iprof);
             }
             let t = Instant::now();
             let snap = Snapshot {
-                tx: cgrid.local(tx),
+                tx: cgrid.local(tx_fine[f]),
                 rx: &rx_c_local,
                 profiles: &iprof,
-                profile_len: geo.n_bins,
+                profile_len: nb,
             };
             accs_i
                 .par_iter_mut()
@@ -538,7 +592,7 @@ pub fn image_pair(
     }
     stats.coarse_voxels = cimg.len();
     let passes = if clutter_ref { 3 } else { 1 };
-    stats.backprojections += (passes * cimg.len() * rx_coarse.len() * tx_coarse.len()) as f64;
+    stats.backprojections += (passes * cimg.len() * rx_c_idx.len() * tx_c_idx.len()) as f64;
     let [cx, cy, cz] = cdims;
     let coarse_in_region = |i: usize| {
         let q = Vec3::new(
@@ -595,7 +649,7 @@ pub fn image_pair(
     let v = im.voxel_m;
     let fdims = dims_of(lo, hi, v);
     stats.region_voxels = fdims.iter().product();
-    let nb = [
+    let n_bricks = [
         fdims[0].div_ceil(BRICK),
         fdims[1].div_ceil(BRICK),
         fdims[2].div_ceil(BRICK),
@@ -607,9 +661,9 @@ pub fn image_pair(
     };
     let mut bricks = Vec::new();
     let mut offset = 0usize;
-    for bz in 0..nb[2] {
-        for by in 0..nb[1] {
-            for bx in 0..nb[0] {
+    for bz in 0..n_bricks[2] {
+        for by in 0..n_bricks[1] {
+            for bx in 0..n_bricks[0] {
                 let start = [bx * BRICK, by * BRICK, bz * BRICK];
                 let dims = [
                     BRICK.min(fdims[0] - start[0]),
@@ -667,10 +721,7 @@ pub fn image_pair(
     let mut qimg = vec![Complex32::new(0.0, 0.0); if opts.fixed_point { offset } else { 0 }];
     let mut img_m = vec![Complex32::new(0.0, 0.0); if clutter_ref { offset } else { 0 }];
     let mut img_i = img_m.clone();
-    // With the coherence test the data's frames are kept, element-major, for the
-    // receive-coherence pass; in f32 that pass is the data image itself.
-    let (nt, nb) = (tx_fine.len(), geo.n_bins);
-    let mut frames = vec![Complex32::new(0.0, 0.0); if coherence { nt * prof.len() } else { 0 }];
+    // With the coherence test, in f32 the receive-coherence pass is the data image itself.
     let mut img_r = vec![0f32; if coherence { offset } else { 0 }];
     let data_per_frame = !coherence || opts.fixed_point;
     let mut mprof = vec![Complex32::new(0.0, 0.0); if clutter_ref { prof.len() } else { 0 }];
@@ -693,16 +744,9 @@ pub fn image_pair(
             Accs::F32(Vec::new())
         };
         for (f, &tx) in tx_fine.iter().enumerate() {
-            src.frame(f, tx, &rx_fine, &mut prof)?;
-            if let Some(m) = model.as_mut() {
-                m.noise_var = src.noise_var;
-                m.frame(f, tx, &rx_fine, &mut mprof)?;
+            gather(f, &mut (0..ne), &mut prof, &mut mprof);
+            if clutter_ref {
                 excess_power_of(&prof, &mprof, &mut iprof);
-            }
-            if coherence {
-                for (e, p) in prof.chunks_exact(nb).enumerate() {
-                    frames[(e * nt + f) * nb..(e * nt + f + 1) * nb].copy_from_slice(p);
-                }
             }
             let t = Instant::now();
             push_bricks_f32(&mut accs_i, &bricks, |b| &b.bp_inc, tx, &iprof, geo.n_bins)?;
@@ -783,6 +827,7 @@ pub fn image_pair(
         }
     }
     drop(frames);
+    drop(mframes);
     if opts.fixed_point {
         img = qimg;
     }

@@ -110,8 +110,8 @@ pub enum RunError {
 pub const IMAGING_BYTES_PER_VOXEL: usize = 3 * 8 + 16 + 8 + 4 + 8 + 4 * 4 + 48 + 12;
 
 /// Fine voxels of the region's bounding box and the worst-case bytes one pair's imaging needs:
-/// [`IMAGING_BYTES_PER_VOXEL`] per voxel plus the data frames the receive-coherence pass holds
-/// for the largest pairing ([`super::driver::held_frames_bytes`]).
+/// [`IMAGING_BYTES_PER_VOXEL`] per voxel plus the frames the imaging holds for the largest
+/// pairing ([`super::driver::held_frames_bytes`]).
 pub fn memory_estimate(sc: &ImagingScenario) -> (usize, u64) {
     let (lo, hi) = sc.region();
     let d = ((hi - lo) / sc.imaging.voxel_m).floor() + Vec3::ONE;
@@ -612,11 +612,12 @@ mod tests {
         let mut sc = factory();
         let (voxels, need) = memory_estimate(&sc);
         let per_voxel = voxels as u64 * IMAGING_BYTES_PER_VOXEL as u64;
-        // The receive-coherence pass holds one pair's frames: counted, and only with the test.
+        // One pair's frames are held (data and terrain model), counted: half without the
+        // terrain model.
         let frames = need - per_voxel;
         assert!(frames > 0);
-        sc.imaging.coherence_test = false;
-        assert_eq!(memory_estimate(&sc).1, per_voxel);
+        sc.imaging.detection = super::super::config::Detection::Peak;
+        assert_eq!(2 * (memory_estimate(&sc).1 - per_voxel), frames);
         assert!(check_memory(&sc).is_ok());
     }
 }
