@@ -4,8 +4,10 @@
 //! **Pairing.** Unless the scenario lists `[[pairs]]`, each aperture is paired with the base
 //! station that, together with it, sees the largest area of (non-ground) surface inside the
 //! imaging region — visibility from the aperture centre and the array centre, the paper's "which
-//! BS pairs with which aperture follows from visibility". Aperture sampling defaults to the
-//! Nyquist spacing for the region ([`super::sensors::nyquist_spacing_m`]).
+//! BS pairs with which aperture follows from visibility". That visibility is the true scene's:
+//! an oracle the operator does not have (list `[[pairs]]` to keep the truth out of a run).
+//! Aperture sampling defaults to the Nyquist spacing for the region
+//! ([`super::sensors::nyquist_spacing_m`]).
 //!
 //! **Fusion.** Every pair images on the same voxel lattice, so clouds merge voxel by voxel. A
 //! point of pair `k` carries weight `w = (|I|/peak_k) · c_k · q_k`, with `c_k` the pair's coverage
