@@ -648,8 +648,7 @@ fn report_md(r: &serde_json::Value, cmp: &CloudComparison) -> Result<String> {
             p["name"].as_str().unwrap_or(""),
             st["frames"],
             st["elements"],
-            // `+ 0.0`: an empty sum is −0.0, printed "-0".
-            p["coverage_m2"].as_f64().unwrap_or(0.0) + 0.0,
+            p["coverage_m2"].as_f64().unwrap_or(0.0),
             p["points"],
             st["fine_voxels"],
             st["region_voxels"],

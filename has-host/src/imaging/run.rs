@@ -308,8 +308,8 @@ pub fn plan_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, 
                     && s.pos.cmpge(lo).all()
                     && s.pos.cmple(hi).all()
             })
-            .map(|s| s.area_m2 as f64)
-            .sum())
+            // From +0: `sum` of no terms is −0.0, which reports print as "-0".
+            .fold(0.0, |acc, s| acc + s.area_m2 as f64))
     };
     let mut plans = Vec::new();
     let mk = |bs: usize, ai: usize, cov: f64| pair_plan(sc, bs, ai, cov);
@@ -618,7 +618,7 @@ mod tests {
         // terrain model.
         let frames = need - per_voxel;
         assert!(frames > 0);
-        sc.imaging.detection = super::super::config::Detection::Peak;
+        sc.imaging.detection = crate::imaging::Detection::Peak;
         assert_eq!(2 * (memory_estimate(&sc).1 - per_voxel), frames);
         assert!(check_memory(&sc).is_ok());
     }
