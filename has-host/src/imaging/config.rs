@@ -239,6 +239,10 @@ pub struct ImagingSpec {
     /// strongest point's (0 keeps all).
     #[serde(default = "default_fusion_min")]
     pub fusion_min_weight: f32,
+    /// Cross-pair confirmation ([`super::confirmation`]): drop a fused point that this many
+    /// pairs which see its place did not detect (0 keeps every point).
+    #[serde(default = "default_cross_pair_denials")]
+    pub cross_pair_denials: u8,
     /// Seed of the scatterer sampling and the noise.
     #[serde(default = "default_one_u64")]
     pub seed: u64,
@@ -336,6 +340,9 @@ fn default_truth_density() -> f64 {
 }
 fn default_vis_shift() -> f32 {
     0.5
+}
+fn default_cross_pair_denials() -> u8 {
+    2
 }
 fn default_fusion_min() -> f32 {
     0.0

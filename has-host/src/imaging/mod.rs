@@ -2,6 +2,7 @@
 //! driver that feeds has-dsp back-projection, pair planning, point-cloud extraction and fusion.
 
 pub mod config;
+pub mod confirmation;
 pub mod detection;
 pub mod driver;
 pub mod run;

@@ -15,7 +15,9 @@
 //! finest theoretical resolution cell among pairs to this pair's (geometric mean of range,
 //! virtual-aperture and real-aperture cross-range resolutions at the region centre). A fused
 //! voxel's weight is the sum over the pairs that kept it; voxels below
-//! `imaging.fusion_min_weight` × the largest weight are dropped.
+//! `imaging.fusion_min_weight` × the largest weight are dropped. Then [`confirm`] drops the
+//! points that two or more pairs which see their place did not detect
+//! ([`super::confirmation`]): one pair's false alarms, not surfaces.
 //!
 //! **Ground truth.** Uniform area-weighted samples (`imaging.truth_density_per_m2`) on every face of
 //! the `imaging.truth_objects` that does not face down (the building's walls and roofs).
@@ -25,11 +27,13 @@ use std::collections::HashMap;
 use glam::Vec3;
 
 use super::config::ImagingScenario;
+use super::confirmation::{denials, PairSight};
 use super::driver::{image_pair, ImagingError, PairImage, PairPlan, RunOptions};
 use super::sensors::{nyquist_spacing_m, pair_resolution_m};
 use rayon::prelude::*;
 
 use crate::echo::{visible_for, ScattererSet};
+use crate::knn::PointIndex;
 use crate::scene::Scene;
 
 /// The world a run images.
@@ -382,6 +386,8 @@ pub struct FusedCloud {
     pub pair_mask: Vec<u64>,
     /// Per pair: its fusion factor `c_k·q_k`.
     pub pair_factor: Vec<f32>,
+    /// Points dropped by the cross-pair confirmation ([`confirm`]).
+    pub unconfirmed: usize,
 }
 
 /// Fuses the pairs' clouds (module docs).
@@ -450,6 +456,81 @@ pub fn fuse(
         out.pair_mask.push(mask);
     }
     out
+}
+
+/// The fused cloud without the points that `imaging.cross_pair_denials` or more pairs which see
+/// their place did not detect ([`super::confirmation`]); unchanged when that is 0.
+pub fn confirm(
+    sc: &ImagingScenario,
+    world: &World,
+    plans: &[PairPlan],
+    images: &[PairImage],
+    fused: FusedCloud,
+) -> FusedCloud {
+    let need = sc.imaging.cross_pair_denials;
+    if need == 0 || fused.points.is_empty() {
+        return fused;
+    }
+    let indices: Vec<Option<PointIndex>> = images
+        .iter()
+        .map(|im| PointIndex::new("pair points", &im.points).ok())
+        .collect();
+    let sights: Vec<PairSight<'_>> = plans
+        .iter()
+        .zip(&indices)
+        .map(|(p, idx)| {
+            let a = sc.array(p.bs);
+            PairSight {
+                rx: a.centre,
+                boresight: a.boresight(),
+                tx: sc.aperture(p.aperture, 2).centre(),
+                detections: idx.as_ref(),
+            }
+        })
+        .collect();
+    let d = denials(
+        &fused.points,
+        &fused.pair_mask,
+        &sights,
+        &world.terrain.scene,
+        sc.imaging.voxel_m,
+        support_distance_m(sc, plans),
+    );
+    let keep: Vec<bool> = d.iter().map(|&n| n < need).collect();
+    let pick = |v: &[f32]| -> Vec<f32> {
+        v.iter()
+            .zip(&keep)
+            .filter(|(_, &k)| k)
+            .map(|(x, _)| *x)
+            .collect()
+    };
+    FusedCloud {
+        points: fused
+            .points
+            .iter()
+            .zip(&keep)
+            .filter(|(_, &k)| k)
+            .map(|(p, _)| *p)
+            .collect(),
+        weight: pick(&fused.weight),
+        intensity: pick(&fused.intensity),
+        pairs: fused
+            .pairs
+            .iter()
+            .zip(&keep)
+            .filter(|(_, &k)| k)
+            .map(|(p, _)| *p)
+            .collect(),
+        pair_mask: fused
+            .pair_mask
+            .iter()
+            .zip(&keep)
+            .filter(|(_, &k)| k)
+            .map(|(p, _)| *p)
+            .collect(),
+        pair_factor: fused.pair_factor,
+        unconfirmed: keep.iter().filter(|&&k| !k).count(),
+    }
 }
 
 /// For each fused point, the (aperture centre, panel centre) of every pair that observed it: the
@@ -572,6 +653,7 @@ pub fn run_imaging(
         images.push(img);
     }
     let fused = fuse(sc, &plans, &images, sc.imaging.voxel_m);
+    let fused = confirm(sc, world, &plans, &images, fused);
     Ok(RunResult {
         plans,
         images,

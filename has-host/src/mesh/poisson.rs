@@ -104,6 +104,11 @@ pub struct PoissonParams {
     /// coarsest level always is). At most [`MAX_NODES`]. Default 2^17: full grids of a few
     /// 10⁵ nodes converge in 100–150 CG iterations where a band needs 20–40.
     pub dense_max_nodes: usize,
+    /// The finest cell, metres, whatever the cloud's extent (`None`: the depth's,
+    /// padded largest extent / 2^depth). A cell fixed in metres (e.g. the imaging voxel) keeps
+    /// the mesh's resolution from jumping by up to 2× when the cloud grows or shrinks across a
+    /// power of two — as it did when a few far points were removed, or the site was rotated.
+    pub cell_m: Option<f32>,
 }
 
 impl Default for PoissonParams {
@@ -119,6 +124,7 @@ impl Default for PoissonParams {
             density_k: 8,
             band: Some(2),
             dense_max_nodes: 1 << 17,
+            cell_m: None,
         }
     }
 }
@@ -187,6 +193,11 @@ fn check_params(p: &PoissonParams) -> Result<(), GeometryError> {
     }
     if p.max_cg_iterations == 0 {
         return Err(bad("max_cg_iterations", 0.0, "at least 1"));
+    }
+    if let Some(c) = p.cell_m {
+        if !(c.is_finite() && c > 0.0) {
+            return Err(bad("cell_m", c as f64, "finite and > 0"));
+        }
     }
     if !(p.padding.is_finite() && p.padding >= 0.0) {
         return Err(bad("padding", p.padding as f64, "finite and >= 0"));
@@ -691,7 +702,9 @@ pub fn screened_poisson(
     }
     let ext = hi - lo;
     let max_ext = ext.max_element();
-    let h = max_ext * (1.0 + 2.0 * params.padding) / (1u64 << params.depth) as f32;
+    let h = params
+        .cell_m
+        .unwrap_or(max_ext * (1.0 + 2.0 * params.padding) / (1u64 << params.depth) as f32);
     let pad_cells = ((params.padding * max_ext) / h).ceil().max(3.0) as usize;
     let unit = 1usize << params.levels;
     let mut cells = [0usize; 3];
