@@ -13,7 +13,10 @@
 //! (`(p − rx)·n̂ > 0`, the array's half-space), and both legs — from the panel's centre and
 //! from the aperture's centre to `p` — reach `p` through the known terrain (its scene) and
 //! through the fused cloud itself (no fused voxel on the segment outside `p`'s own support
-//! distance: the detected surfaces are the only buildings the operator knows). Pair `j`
+//! distance: the detected surfaces are the only buildings the operator knows; the point's own
+//! single-pair cluster — the voxels the same one pair kept, connected to it — does not count,
+//! since it is what the test questions, and a false-alarm patch wider than the support distance
+//! would otherwise hide itself from every pair). Pair `j`
 //! *confirms* `p` when it detected a point within the support distance of `p` (half the
 //! coarsest resolution cell of the pairs, [`super::run::support_distance_m`]: the surface that
 //! gave `p` lies within it). A pair that sees `p` and does not confirm it *denies* it. A point
@@ -29,7 +32,7 @@
 //!
 //! Units: metres; points in the world frame.
 
-use std::collections::HashSet;
+use std::collections::HashMap;
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -65,40 +68,80 @@ pub fn denials(
         let q = (p / voxel_m).round();
         [q.x as i64, q.y as i64, q.z as i64]
     };
-    // The cloud samples a surface with gaps: a fused voxel within one voxel of the leg is a
-    // surface on it, so the occupied set is the cloud's voxels dilated by one (3 × 3 × 3).
-    let mut occupied: HashSet<[i64; 3]> = HashSet::with_capacity(points.len() * 4);
-    for &p in points {
+    // Single-pair clusters: the 26-connected voxels kept by the same one pair. Such a cluster
+    // is what the test questions, so it does not hide its own points (a false-alarm cluster
+    // wider than the support distance would otherwise shield itself from every pair).
+    let index: HashMap<[i64; 3], usize> = points
+        .iter()
+        .enumerate()
+        .map(|(i, &p)| (key(p), i))
+        .collect();
+    let single = |i: usize| mask[i].count_ones() == 1;
+    let mut cluster: Vec<usize> = (0..points.len()).collect();
+    fn root(c: &mut [usize], mut i: usize) -> usize {
+        while c[i] != i {
+            c[i] = c[c[i]];
+            i = c[i];
+        }
+        i
+    }
+    for (i, &p) in points.iter().enumerate() {
+        if !single(i) {
+            continue;
+        }
         let [x, y, z] = key(p);
-        for dz in -1..=1 {
-            for dy in -1..=1 {
-                for dx in -1..=1 {
-                    occupied.insert([x + dx, y + dy, z + dz]);
+        for n in neighbours([x, y, z]) {
+            if let Some(&j) = index.get(&n) {
+                if single(j) && mask[j] == mask[i] {
+                    let (a, b) = (root(&mut cluster, i), root(&mut cluster, j));
+                    cluster[a.max(b)] = a.min(b);
                 }
             }
         }
     }
-    // A leg from `s` reaches `p` unless a fused voxel lies on it short of `p`'s support, or the
-    // terrain cuts it.
-    let reaches = |s: Vec3, p: Vec3| -> bool {
+    let cluster: Vec<usize> = (0..points.len()).map(|i| root(&mut cluster, i)).collect();
+    // The cloud samples a surface with gaps: a fused voxel within one voxel of the leg is a
+    // surface on it, so the occupied set is the cloud's voxels dilated by one (3 × 3 × 3), each
+    // with the single-pair cluster that covers it (`None`: several, or a multi-pair point).
+    let mut occupied: HashMap<[i64; 3], Option<usize>> = HashMap::with_capacity(points.len() * 4);
+    for (i, &p) in points.iter().enumerate() {
+        let own = single(i).then_some(cluster[i]);
+        for n in neighbours(key(p)) {
+            occupied
+                .entry(n)
+                .and_modify(|o| {
+                    if *o != own {
+                        *o = None;
+                    }
+                })
+                .or_insert(own);
+        }
+    }
+    // A leg from `s` reaches point `i` unless a fused voxel of another cluster lies on it short
+    // of the point's support, or the terrain cuts it.
+    let reaches = |s: Vec3, i: usize| -> bool {
+        let p = points[i];
         let d = p - s;
         let len = d.length();
         if len.is_nan() || len <= support_m {
             return true;
         }
         let dir = d / len;
+        let own = single(i).then_some(cluster[i]);
         // One sample per voxel: the dilated set is three voxels wide, so no sample skips it.
         let n = ((len - support_m) / voxel_m).floor() as usize;
-        if (0..=n).any(|i| occupied.contains(&key(s + dir * (i as f32 * voxel_m)))) {
-            return false;
-        }
-        terrain.visible(s, p)
+        let blocked = (0..=n).any(|k| {
+            occupied
+                .get(&key(s + dir * (k as f32 * voxel_m)))
+                .is_some_and(|&o| o.is_none() || o != own)
+        });
+        !blocked && terrain.visible(s, p)
     };
     let r2 = support_m * support_m;
-    points
-        .par_iter()
-        .zip(mask)
-        .map(|(&p, &m)| {
+    (0..points.len())
+        .into_par_iter()
+        .map(|i| {
+            let (p, m) = (points[i], mask[i]);
             let mut n = 0u8;
             for (k, s) in sights.iter().enumerate() {
                 if k < 64 && (m >> k) & 1 == 1 {
@@ -108,7 +151,7 @@ pub fn denials(
                     continue;
                 }
                 let confirmed = s.detections.is_some_and(|d| d.nearest(p).1 <= r2);
-                if confirmed || !reaches(s.rx, p) || !reaches(s.tx, p) {
+                if confirmed || !reaches(s.rx, i) || !reaches(s.tx, i) {
                     continue;
                 }
                 n = n.saturating_add(1);
@@ -116,6 +159,13 @@ pub fn denials(
             n
         })
         .collect()
+}
+
+/// The voxel keys of `k` and its 26 neighbours.
+fn neighbours(k: [i64; 3]) -> impl Iterator<Item = [i64; 3]> {
+    (-1..=1).flat_map(move |dz| {
+        (-1..=1).flat_map(move |dy| (-1..=1).map(move |dx| [k[0] + dx, k[1] + dy, k[2] + dz]))
+    })
 }
 
 #[cfg(test)]
@@ -194,6 +244,30 @@ mod tests {
         let d = denials(&[p], &[1], &sights, &open_ground(), 0.5, 1.5);
         // Pair 1 confirms (1 m away), pair 2 cannot see it, pair 3 denies (its point is 5 m off).
         assert_eq!(d, vec![1]);
+    }
+
+    #[test]
+    fn a_single_pair_cluster_wider_than_the_support_does_not_hide_itself() {
+        // A 4 m × 4 m blob of one pair's detections (a false-alarm patch) on open ground: each of
+        // its points lies behind others from the pairs at ±x, and is still denied by both.
+        let mut pts = Vec::new();
+        for i in 0..8 {
+            for j in 0..8 {
+                pts.push(Vec3::new(i as f32 * 0.5 - 2.0, j as f32 * 0.5 - 2.0, 1.0));
+            }
+        }
+        let mask = vec![1u64; pts.len()];
+        let sights = [
+            sight(
+                Vec3::new(-50.0, 0.0, 20.0),
+                Vec3::new(-10.0, 0.0, 1.5),
+                None,
+            ),
+            sight(Vec3::new(50.0, 0.0, 20.0), Vec3::new(10.0, 0.0, 1.5), None),
+            sight(Vec3::new(0.0, 50.0, 20.0), Vec3::new(0.0, 10.0, 1.5), None),
+        ];
+        let d = denials(&pts, &mask, &sights, &open_ground(), 0.5, 1.5);
+        assert!(d.iter().all(|&n| n == 2), "{d:?}");
     }
 
     #[test]
