@@ -768,6 +768,16 @@ impl ImagingScenario {
         }
     }
 
+    /// The region's footprint in xy, metres: its `region_polygon`, else the box's four corners
+    /// (counter-clockwise).
+    pub fn region_footprint(&self) -> Vec<[f32; 2]> {
+        let (lo, hi) = self.region();
+        match &self.imaging.region_polygon {
+            Some(poly) => poly.clone(),
+            None => vec![[lo.x, lo.y], [hi.x, lo.y], [hi.x, hi.y], [lo.x, hi.y]],
+        }
+    }
+
     /// Whether a ground point at `p` scatters in the simulated world: inside the disc centred on
     /// the region footprint's vertex mean (the polygon's, else the box's four corners) whose
     /// radius reaches `ground_margin_m` past the farthest vertex. A disc, so that the world's
@@ -775,12 +785,7 @@ impl ImagingScenario {
     /// axis-aligned box grown by the margin held 1.7 × the ground of the unrotated factory site
     /// for the site turned by 37°, and its larger range-bin power hid roof detections).
     pub fn scatters_as_ground(&self, p: Vec3) -> bool {
-        let (lo, hi) = self.region();
-        let corners = [[lo.x, lo.y], [hi.x, lo.y], [hi.x, hi.y], [lo.x, hi.y]];
-        let footprint: &[[f32; 2]] = match &self.imaging.region_polygon {
-            Some(poly) => poly,
-            None => &corners,
-        };
+        let footprint = self.region_footprint();
         let n = footprint.len().max(1) as f32;
         let c = footprint
             .iter()
