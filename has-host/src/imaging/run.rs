@@ -282,11 +282,12 @@ pub fn default_positions(sc: &ImagingScenario, ai: usize) -> usize {
     let ap = sc.aperture(ai, 2);
     let dir = (ap.end - ap.start).normalize_or_zero();
     let c = ap.centre();
-    // The widest angle under which the track sees the region: over the footprint's edges (each
-    // at 9 points) and its vertex mean, at the region's floor, middle, top and the track's own
-    // height — the region itself, not its axis-aligned box (which a turned site's region fills
-    // only in part: the box gave the UAV track of the factory site turned by 37° 191 positions
-    // against the unturned site's 172).
+    // The widest angle under which the track sees the region: over the footprint's vertices,
+    // edge midpoints and vertex mean, at the region's floor, middle and top — the region itself,
+    // not its axis-aligned box (which a turned site's region fills only in part: the box gave
+    // the UAV track of the factory site turned by 37° 191 positions against the unturned site's
+    // 172). For a box region these are the 27 points of the box (corners, edge and face centres,
+    // centre); for a turned region the same points turned with it.
     let (lo, hi) = sc.region();
     let foot = sc.region_footprint();
     let centroid = foot
@@ -299,11 +300,11 @@ pub fn default_positions(sc: &ImagingScenario, ai: usize) -> usize {
                 glam::Vec2::from(foot[k]),
                 glam::Vec2::from(foot[(k + 1) % foot.len()]),
             );
-            (0..9).map(move |t| a.lerp(b, t as f32 / 8.0))
+            [a, a.lerp(b, 0.5)]
         })
         .chain(std::iter::once(centroid))
         .collect();
-    let zs = [lo.z, 0.5 * (lo.z + hi.z), hi.z, c.z.clamp(lo.z, hi.z)];
+    let zs = [lo.z, 0.5 * (lo.z + hi.z), hi.z];
     let mut max_cos = 0.0f32;
     for q in &xy {
         for &z in &zs {
