@@ -195,10 +195,9 @@ mod tests {
         }
     }
 
-    #[test]
-    fn a_point_that_two_seeing_pairs_did_not_detect_is_denied_twice() {
-        let p = Vec3::new(0.0, 0.0, 1.0);
-        let sights = [
+    /// Three pairs around the origin (west, east, north), none with a detection.
+    fn around() -> [PairSight<'static>; 3] {
+        [
             sight(
                 Vec3::new(-50.0, 0.0, 20.0),
                 Vec3::new(-10.0, 0.0, 1.5),
@@ -206,7 +205,13 @@ mod tests {
             ),
             sight(Vec3::new(50.0, 0.0, 20.0), Vec3::new(10.0, 0.0, 1.5), None),
             sight(Vec3::new(0.0, 50.0, 20.0), Vec3::new(0.0, 10.0, 1.5), None),
-        ];
+        ]
+    }
+
+    #[test]
+    fn a_point_that_two_seeing_pairs_did_not_detect_is_denied_twice() {
+        let p = Vec3::new(0.0, 0.0, 1.0);
+        let sights = around();
         // Pair 0 detected it; pairs 1 and 2 see the place and detected nothing.
         let d = denials(&[p], &[1], &sights, &open_ground(), 0.5, 1.5);
         assert_eq!(d, vec![2]);
@@ -257,15 +262,7 @@ mod tests {
             }
         }
         let mask = vec![1u64; pts.len()];
-        let sights = [
-            sight(
-                Vec3::new(-50.0, 0.0, 20.0),
-                Vec3::new(-10.0, 0.0, 1.5),
-                None,
-            ),
-            sight(Vec3::new(50.0, 0.0, 20.0), Vec3::new(10.0, 0.0, 1.5), None),
-            sight(Vec3::new(0.0, 50.0, 20.0), Vec3::new(0.0, 10.0, 1.5), None),
-        ];
+        let sights = around();
         let d = denials(&pts, &mask, &sights, &open_ground(), 0.5, 1.5);
         assert!(d.iter().all(|&n| n == 2), "{d:?}");
     }

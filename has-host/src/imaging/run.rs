@@ -520,37 +520,19 @@ pub fn confirm(
         support_distance_m(sc, plans),
     );
     let keep: Vec<bool> = d.iter().map(|&n| n < need).collect();
-    let pick = |v: &[f32]| -> Vec<f32> {
+    fn pick<T: Copy>(v: &[T], keep: &[bool]) -> Vec<T> {
         v.iter()
-            .zip(&keep)
+            .zip(keep)
             .filter(|(_, &k)| k)
             .map(|(x, _)| *x)
             .collect()
-    };
+    }
     FusedCloud {
-        points: fused
-            .points
-            .iter()
-            .zip(&keep)
-            .filter(|(_, &k)| k)
-            .map(|(p, _)| *p)
-            .collect(),
-        weight: pick(&fused.weight),
-        intensity: pick(&fused.intensity),
-        pairs: fused
-            .pairs
-            .iter()
-            .zip(&keep)
-            .filter(|(_, &k)| k)
-            .map(|(p, _)| *p)
-            .collect(),
-        pair_mask: fused
-            .pair_mask
-            .iter()
-            .zip(&keep)
-            .filter(|(_, &k)| k)
-            .map(|(p, _)| *p)
-            .collect(),
+        points: pick(&fused.points, &keep),
+        weight: pick(&fused.weight, &keep),
+        intensity: pick(&fused.intensity, &keep),
+        pairs: pick(&fused.pairs, &keep),
+        pair_mask: pick(&fused.pair_mask, &keep),
         pair_factor: fused.pair_factor,
         unconfirmed: keep.iter().filter(|&&k| !k).count(),
     }
