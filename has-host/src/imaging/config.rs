@@ -341,6 +341,12 @@ fn default_truth_density() -> f64 {
 fn default_vis_shift() -> f32 {
     0.5
 }
+/// The mean of a polygon's vertices (the origin for none).
+fn vertex_mean(poly: &[[f32; 2]]) -> glam::Vec2 {
+    poly.iter()
+        .fold(glam::Vec2::ZERO, |a, v| a + glam::Vec2::from(*v))
+        / poly.len().max(1) as f32
+}
 fn default_cross_pair_denials() -> u8 {
     2
 }
@@ -778,6 +784,11 @@ impl ImagingScenario {
         }
     }
 
+    /// The vertex mean of the region's footprint, metres (xy).
+    pub fn region_footprint_centre(&self) -> glam::Vec2 {
+        vertex_mean(&self.region_footprint())
+    }
+
     /// Whether a ground point at `p` scatters in the simulated world: inside the disc centred on
     /// the region footprint's vertex mean (the polygon's, else the box's four corners) whose
     /// radius reaches `ground_margin_m` past the farthest vertex. A disc, so that the world's
@@ -786,11 +797,7 @@ impl ImagingScenario {
     /// for the site turned by 37°, and its larger range-bin power hid roof detections).
     pub fn scatters_as_ground(&self, p: Vec3) -> bool {
         let footprint = self.region_footprint();
-        let n = footprint.len().max(1) as f32;
-        let c = footprint
-            .iter()
-            .fold(glam::Vec2::ZERO, |a, v| a + glam::Vec2::from(*v))
-            / n;
+        let c = vertex_mean(&footprint);
         let r = footprint
             .iter()
             .map(|v| glam::Vec2::from(*v).distance(c))

@@ -290,10 +290,6 @@ pub fn default_positions(sc: &ImagingScenario, ai: usize) -> usize {
     // centre); for a turned region the same points turned with it.
     let (lo, hi) = sc.region();
     let foot = sc.region_footprint();
-    let centroid = foot
-        .iter()
-        .fold(glam::Vec2::ZERO, |a, v| a + glam::Vec2::from(*v))
-        / foot.len().max(1) as f32;
     let xy: Vec<glam::Vec2> = (0..foot.len())
         .flat_map(|k| {
             let (a, b) = (
@@ -302,7 +298,7 @@ pub fn default_positions(sc: &ImagingScenario, ai: usize) -> usize {
             );
             [a, a.lerp(b, 0.5)]
         })
-        .chain(std::iter::once(centroid))
+        .chain(std::iter::once(sc.region_footprint_centre()))
         .collect();
     let zs = [lo.z, 0.5 * (lo.z + hi.z), hi.z];
     let mut max_cos = 0.0f32;
