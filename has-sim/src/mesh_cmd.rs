@@ -31,6 +31,10 @@ pub struct MeshArgs {
     /// the cloud's noise σ.
     #[arg(long, default_value_t = 7)]
     pub depth: u32,
+    /// The finest cell in metres, whatever the cloud's extent (overrides the cell of `--depth`;
+    /// `reconstruct` fixes it this way).
+    #[arg(long)]
+    pub cell: Option<f32>,
     /// Density-trim quantile in [0, 1) (Open3D style): drop vertices whose support density is
     /// below this quantile, with their faces. Omitted (and no `--trim-median`) = keep the closed
     /// surface.
@@ -248,6 +252,7 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         screening: a.screening,
         band: (!a.full_grid).then_some(a.band),
         dense_max_nodes: a.dense_max_nodes,
+        cell_m: a.cell,
         ..PoissonParams::default()
     };
     let t1 = Instant::now();
