@@ -133,6 +133,28 @@ pub fn layer_looks_per_voxel(voxel_m: f32, cell_m3: f32, cell_vertical_m: f32) -
     (v * v / section.max(1e-12)).min(1.0)
 }
 
+/// The threshold factor for spiky clutter: where the bare-terrain model's power is not
+/// exponential (few terrain scatterers per resolution cell — next to a terminal's track the
+/// track resolves the ground into centimetre cells, each holding one scatterer or none), a mean
+/// level times the exponential factor is crossed by single strong ground echoes far more often
+/// than `pfa`. The clutter is then modelled as generalised-Pareto (exponential speckle on an
+/// inverse-gamma texture of shape `ν`): `P(I > t) = (1 + t/((ν − 1)μ))^{−ν}`, so the factor over
+/// the mean `μ` is `(ν − 1)(pfa^{−1/ν} − 1)` (`ν → ∞`: `−ln pfa`, the exponential case). Its
+/// normalised second moment is `κ = ⟨I²⟩/⟨I⟩² = 2(ν − 1)/(ν − 2)` (2 for exponential power), so
+/// `ν = 2(κ − 1)/(κ − 2)`. `kappa` is measured on the model over the reference window, from
+/// `looks` independent looks; an exponential field's sample `κ` scatters by about
+/// `√(20/looks)` (`Var(I²) = 20μ⁴`), so only the excess beyond two such deviations counts as
+/// texture. Returns 0 where the window is consistent with exponential clutter (the mean-level
+/// factor then applies alone).
+pub fn pareto_factor(kappa: f64, looks: f64, pfa: f64) -> f64 {
+    let k = kappa - 2.0 * (20.0 / looks.max(1.0)).sqrt();
+    if !k.is_finite() || k <= 2.0 {
+        return 0.0;
+    }
+    let nu = 2.0 * (k - 1.0) / (k - 2.0);
+    (nu - 1.0) * (pfa.powf(-1.0 / nu) - 1.0)
+}
+
 /// The reference of every voxel: the mean of the known voxels around it and how many there were.
 #[derive(Clone, Debug)]
 pub struct LocalMean {
@@ -225,6 +247,30 @@ impl CfarFactors {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn spiky_clutter_needs_a_higher_threshold_and_exponential_clutter_none() {
+        let pfa = 1e-5;
+        // Exponential power: κ = 2, nothing to add; nor for a κ within the sampling scatter.
+        assert_eq!(pareto_factor(2.0, 100.0, pfa), 0.0);
+        assert_eq!(pareto_factor(2.8, 100.0, pfa), 0.0);
+        assert_eq!(pareto_factor(f64::NAN, 100.0, pfa), 0.0);
+        // A texture of shape ν has κ = 2(ν − 1)/(ν − 2); its factor is (ν − 1)(pfa^(−1/ν) − 1),
+        // which a direct tail computation confirms: (1 + α/(ν − 1))^(−ν) = pfa.
+        let looks = f64::INFINITY; // no sampling allowance
+        for nu in [2.5f64, 4.0, 10.0] {
+            let kappa = 2.0 * (nu - 1.0) / (nu - 2.0);
+            let a = pareto_factor(kappa, looks, pfa);
+            let tail = (1.0 + a / (nu - 1.0)).powf(-nu);
+            assert!((tail / pfa - 1.0).abs() < 1e-6, "ν {nu}: tail {tail}");
+            assert!(
+                a > -pfa.ln(),
+                "ν {nu}: {a} not above the exponential factor"
+            );
+        }
+        // Spikier clutter, higher factor.
+        assert!(pareto_factor(10.0, looks, pfa) > pareto_factor(4.0, looks, pfa));
+    }
 
     #[test]
     fn local_mean_of_a_constant_field_is_that_constant_even_at_the_edges() {

@@ -46,8 +46,8 @@ use rayon::prelude::*;
 
 use super::config::{Detection, ImagingScenario};
 use super::detection::{
-    alias_is_stronger, coherence_factor, detected, image_false_alarm_probability,
-    layer_looks_per_voxel, layer_window, local_mean, CfarFactors,
+    alias_is_stronger, coherence_factor, detected, effective_looks, image_false_alarm_probability,
+    layer_looks_per_voxel, layer_window, local_mean, pareto_factor, CfarFactors,
 };
 use super::run::World;
 use super::sensors::{pair_resolution_m, PlanarArray, VirtualAperture};
@@ -862,14 +862,23 @@ pub fn image_pair(
             }
         }
         let c = local_mean(&pm, fdims, radius);
+        // The model's second moment over the same window: how spiky the terrain's clutter is
+        // there ([`super::detection::pareto_factor`]).
+        pm.iter_mut().for_each(|x| *x *= *x);
+        let c2 = local_mean(&pm, fdims, radius).mean;
         drop(pm);
+        let looks_per_voxel = layer_looks_per_voxel(v, cell_m3, xz_res);
         let mut det = vec![false; offset];
         for b in &bricks {
             for i in 0..b.bp.voxels() {
                 let j = b.offset + i;
                 let q = img_r.get(j).copied();
                 let g = gidx(b, i);
-                let a = alpha.alpha(c.count[g]);
+                let kappa = c2[g] as f64 / (c.mean[g] as f64).powi(2);
+                let looks = effective_looks(c.count[g].max(1.0) as usize, looks_per_voxel);
+                let a = alpha
+                    .alpha(c.count[g])
+                    .max(pareto_factor(kappa, looks, pfa) as f32);
                 det[j] = detected(img[j].norm_sqr(), c.mean[g], img_i[j].re, q, a, beta);
             }
         }

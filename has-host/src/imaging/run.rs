@@ -109,11 +109,11 @@ pub enum RunError {
 /// Worst-case bytes per fine voxel of one pair's imaging (every brick active): the data, terrain
 /// and incoherent images (3 × 8 B), the fixed-point accumulator and its conversion (16 + 8 B),
 /// the receive-coherence power image and, in a fixed-point run, that pass's own `f32` image
-/// (4 + 8 B), the dense detection arrays (predicted power, two running sums, local mean:
-/// 4 × 4 B), the bricks' receive positions for two back-projectors (≈ 2 × 12 B × elements / 512
+/// (4 + 8 B), the dense detection arrays (predicted power, its local mean and count, and the
+/// two running sums of its second moment's: 5 × 4 B), the bricks' receive positions for two back-projectors (≈ 2 × 12 B × elements / 512
 /// voxels, at most 2 × 12 × 1024 / 512 = 48 B) and their transmit positions (12 B × positions
 /// / 512 voxels, 12 B at 512 positions).
-pub const IMAGING_BYTES_PER_VOXEL: usize = 3 * 8 + 16 + 8 + 4 + 8 + 4 * 4 + 48 + 12;
+pub const IMAGING_BYTES_PER_VOXEL: usize = 3 * 8 + 16 + 8 + 4 + 8 + 5 * 4 + 48 + 12;
 
 /// Fine voxels of the region's bounding box and the worst-case bytes one pair's imaging needs:
 /// [`IMAGING_BYTES_PER_VOXEL`] per voxel plus the frames the imaging holds for the largest
