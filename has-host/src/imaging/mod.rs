@@ -8,7 +8,7 @@ pub mod driver;
 pub mod run;
 pub mod sensors;
 
-pub use config::{Detection, ImagingScenario, ScenarioError};
+pub use config::{Detection, ImagingScenario, Pairing, ScenarioError};
 pub use driver::{image_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions};
 pub use run::{
     build_world, check_memory, every_pairing, fuse, memory_estimate, observable_truth,

@@ -1,11 +1,16 @@
 //! A whole imaging run: build the world from the scenario, plan the pairs, image each pair,
 //! fuse the clouds and score them against the ground truth.
 //!
-//! **Pairing.** Unless the scenario lists `[[pairs]]`, each aperture is paired with the base
-//! station that, together with it, sees the largest area of (non-ground) surface inside the
-//! imaging region — visibility from the aperture centre and the array centre, the paper's "which
-//! BS pairs with which aperture follows from visibility". That visibility is the true scene's:
-//! an oracle the operator does not have (list `[[pairs]]` to keep the truth out of a run).
+//! **Pairing.** Unless the scenario lists `[[pairs]]`, each aperture is paired with one base
+//! station (`imaging.pairing`): by default the one that, together with the aperture, sees the
+//! largest area of (non-ground) surface inside the imaging region; with `"joint"` the choice is
+//! made for all apertures together ([`joint_pairing`]): the pairs that together see the most
+//! surface, each element counted once at the best pair that sees it, weighted by its echo
+//! strength there (the bistatic Lambertian pattern `cos θ_tx·cos θ_rx`, [`echo_weight`]: a roof
+//! seen at grazing incidence returns next to nothing). Visibility is from the aperture centre
+//! and the array centre — the paper's "which BS pairs with which aperture follows from
+//! visibility". That visibility is the true scene's: an oracle the operator does not have (list
+//! `[[pairs]]` to keep the truth out of a run).
 //! Aperture sampling defaults to the Nyquist spacing for the region
 //! ([`super::sensors::nyquist_spacing_m`]).
 //!
@@ -26,7 +31,7 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use super::config::ImagingScenario;
+use super::config::{ImagingScenario, Pairing};
 use super::confirmation::{denials, PairSight};
 use super::driver::{image_pair, ImagingError, PairImage, PairPlan, RunOptions};
 use super::sensors::{nyquist_spacing_m, pair_resolution_m};
@@ -319,34 +324,64 @@ pub fn default_positions(sc: &ImagingScenario, ai: usize) -> usize {
 /// [`RunError::NoPairs`] if no pair sees any surface in the region.
 pub fn plan_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, RunError> {
     let (lo, hi) = sc.region();
-    let coverage = |bs: usize, ai: usize| -> Result<f64, RunError> {
+    // What pair (bs, ai) sees of the in-region non-ground surface: per visible scatterer its
+    // index and its echo-weighted area `A·cos θ_tx·cos θ_rx` ([`echo_weight`]), and the plain
+    // visible area (the pair's coverage, m²).
+    let sight = |bs: usize, ai: usize| -> Result<(Vec<(u32, f32)>, f64), RunError> {
         let a = sc.array(bs);
-        let ap = sc.aperture(ai, 2);
-        let vis = visible_for(&world.scatterers, &world.scene, ap.centre(), a.centre)?;
-        Ok(vis
-            .iter()
-            .map(|&i| &world.scatterers.points[i as usize])
-            .filter(|s| {
-                !world.is_ground[s.object as usize]
-                    && s.pos.cmpge(lo).all()
-                    && s.pos.cmple(hi).all()
-            })
-            // From +0: `sum` of no terms is −0.0, which reports print as "-0".
-            .fold(0.0, |acc, s| acc + s.area_m2 as f64))
+        let tx = sc.aperture(ai, 2).centre();
+        let vis = visible_for(&world.scatterers, &world.scene, tx, a.centre)?;
+        let mut seen = Vec::new();
+        // From +0: `sum` of no terms is −0.0, which reports print as "-0".
+        let mut area = 0.0f64;
+        for &i in &vis {
+            let s = &world.scatterers.points[i as usize];
+            if world.is_ground[s.object as usize]
+                || !(s.pos.cmpge(lo).all() && s.pos.cmple(hi).all())
+            {
+                continue;
+            }
+            area += s.area_m2 as f64;
+            seen.push((i, s.area_m2 * echo_weight(s.normal, s.pos, tx, a.centre)));
+        }
+        Ok((seen, area))
     };
     let mut plans = Vec::new();
     let mk = |bs: usize, ai: usize, cov: f64| pair_plan(sc, bs, ai, cov);
     if sc.pairs.is_empty() {
-        for ai in 0..sc.apertures.len() {
-            let mut best = (0usize, 0.0f64);
-            for bs in 0..sc.base_stations.len() {
-                let c = coverage(bs, ai)?;
-                if c > best.1 {
-                    best = (bs, c);
-                }
+        let (nb, na) = (sc.base_stations.len(), sc.apertures.len());
+        let mut sights = Vec::with_capacity(na);
+        for ai in 0..na {
+            sights.push(
+                (0..nb)
+                    .map(|bs| sight(bs, ai))
+                    .collect::<Result<Vec<_>, _>>()?,
+            );
+        }
+        let choice = match sc.imaging.pairing {
+            Pairing::PerAperture => sights
+                .iter()
+                .map(|row| {
+                    let mut best = (None, 0.0f64);
+                    for (bs, (_, area)) in row.iter().enumerate() {
+                        if *area > best.1 {
+                            best = (Some(bs), *area);
+                        }
+                    }
+                    best.0
+                })
+                .collect(),
+            Pairing::Joint => {
+                let seen: Vec<Vec<&[(u32, f32)]>> = sights
+                    .iter()
+                    .map(|row| row.iter().map(|(v, _)| v.as_slice()).collect())
+                    .collect();
+                joint_pairing(&seen, world.scatterers.points.len())
             }
-            if best.1 > 0.0 {
-                plans.push(mk(best.0, ai, best.1));
+        };
+        for (ai, bs) in choice.into_iter().enumerate() {
+            if let Some(bs) = bs {
+                plans.push(mk(bs, ai, sights[ai][bs].1));
             }
         }
     } else {
@@ -361,13 +396,93 @@ pub fn plan_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, 
                 .iter()
                 .position(|a| a.name == p.aperture)
                 .unwrap_or(0);
-            plans.push(mk(bs, ai, coverage(bs, ai)?));
+            plans.push(mk(bs, ai, sight(bs, ai)?.1));
         }
     }
     if plans.is_empty() {
         return Err(RunError::NoPairs);
     }
     Ok(plans)
+}
+
+/// The bistatic Lambertian pattern of a surface element at `pos` with unit normal `normal`
+/// between `tx` and `rx`: `cos θ_tx · cos θ_rx` (0 when either lies behind the face), the factor
+/// by which its echo power falls from broadside (`σ = 4|Γ|²·cos θi·cos θs·A`, [`crate::echo`]).
+/// A face seen at grazing incidence is visible but returns next to nothing.
+pub fn echo_weight(normal: Vec3, pos: Vec3, tx: Vec3, rx: Vec3) -> f32 {
+    let c = |p: Vec3| normal.dot((p - pos).normalize_or_zero()).max(0.0);
+    c(tx) * c(rx)
+}
+
+/// One base station per aperture (`None`: no base station sees anything with it), chosen to
+/// maximise the echo-weighted area the pairs see *together*: `Σ_s max_k w_k(s)` over the
+/// scatterers, `w_k(s)` the echo-weighted area of scatterer `s` in chosen pair `k`
+/// (`seen[ai][bs]`, index and weight of each scatterer the pair sees; `n` scatterers in all). A
+/// surface that one pair already sees well adds nothing for a second, so an aperture goes to
+/// the base station that adds what the others miss, not to the one that repeats them (the
+/// suite's office: its UAV went to the base station behind the two vehicles that already see
+/// the north roof, and the south roof, which only the UAV with the south base station sees well,
+/// went unimaged). Start: each aperture's own best; then each aperture in turn takes the base
+/// station that raises the sum most given the others, until no choice changes (each step
+/// raises the sum strictly, so this ends). Deterministic: ties keep the earlier choice, then
+/// the lower index.
+pub fn joint_pairing(seen: &[Vec<&[(u32, f32)]>], n: usize) -> Vec<Option<usize>> {
+    let total = |v: &[(u32, f32)]| v.iter().map(|&(_, w)| w as f64).sum::<f64>();
+    let mut choice: Vec<Option<usize>> = seen
+        .iter()
+        .map(|row| {
+            let mut best = (None, 0.0f64);
+            for (bs, v) in row.iter().enumerate() {
+                let t = total(v);
+                if t > best.1 {
+                    best = (Some(bs), t);
+                }
+            }
+            best.0
+        })
+        .collect();
+    // The sum of the chosen pairs' weights, scatterer by scatterer, without aperture `skip`.
+    let best_without = |choice: &[Option<usize>], skip: usize| -> Vec<f32> {
+        let mut b = vec![0f32; n];
+        for (ai, c) in choice.iter().enumerate() {
+            if let (Some(bs), true) = (c, ai != skip) {
+                for &(i, w) in seen[ai][*bs] {
+                    let e = &mut b[i as usize];
+                    *e = e.max(w);
+                }
+            }
+        }
+        b
+    };
+    let gain = |base: &[f32], v: &[(u32, f32)]| -> f64 {
+        v.iter()
+            .map(|&(i, w)| (w - base[i as usize]).max(0.0) as f64)
+            .sum()
+    };
+    // Each full round either changes nothing (stop) or raises the sum; the cap only bounds
+    // rounding-level cycling.
+    for _ in 0..4 * seen.len().max(1) {
+        let mut changed = false;
+        for ai in 0..seen.len() {
+            let Some(current) = choice[ai] else { continue };
+            let base = best_without(&choice, ai);
+            let mut best = (current, gain(&base, seen[ai][current]));
+            for (bs, v) in seen[ai].iter().enumerate() {
+                let g = gain(&base, v);
+                if g > best.1 * (1.0 + 1e-9) + 1e-12 {
+                    best = (bs, g);
+                }
+            }
+            if best.0 != current {
+                choice[ai] = Some(best.0);
+                changed = true;
+            }
+        }
+        if !changed {
+            break;
+        }
+    }
+    choice
 }
 
 /// Every (base station, aperture) combination of the scenario, whether or not [`plan_pairs`]
@@ -687,6 +802,72 @@ mod tests {
     fn factory() -> ImagingScenario {
         ImagingScenario::from_toml_str(include_str!("../../../fixtures/factory.toml"))
             .expect("bundled factory")
+    }
+
+    #[test]
+    fn an_aperture_goes_to_the_base_station_that_adds_what_the_others_miss() {
+        // Two apertures, two base stations, surface elements 0..4. Aperture 0 sees 0 and 1 well
+        // with either base station. Aperture 1 sees 0 and 1 best with base station 0 (weight
+        // 3), but 2 and 3 only with base station 1 (weight 2 in all): its own best repeats
+        // aperture 0.
+        let e01: Vec<(u32, f32)> = vec![(0, 1.0), (1, 1.0)];
+        let a1_bs0: Vec<(u32, f32)> = vec![(0, 1.5), (1, 1.5)];
+        let a1_bs1: Vec<(u32, f32)> = vec![(2, 1.0), (3, 1.0)];
+        let seen = vec![
+            vec![e01.as_slice(), e01.as_slice()],
+            vec![a1_bs0.as_slice(), a1_bs1.as_slice()],
+        ];
+        assert_eq!(joint_pairing(&seen, 4), vec![Some(0), Some(1)]);
+        // Alone, the aperture keeps its own best; an aperture that sees nothing gets none.
+        let none: Vec<(u32, f32)> = Vec::new();
+        let seen = vec![
+            vec![a1_bs0.as_slice(), a1_bs1.as_slice()],
+            vec![none.as_slice(), none.as_slice()],
+        ];
+        assert_eq!(joint_pairing(&seen, 4), vec![Some(0), None]);
+    }
+
+    #[test]
+    fn the_joint_pairing_gives_the_uav_to_the_base_station_that_sees_the_roof_nobody_else_does() {
+        // The suite's office: the UAV's own best base station (BS4, west) sees the north roof
+        // and the west side that BS4's two vehicle pairs already see; the gable's south roof
+        // faces away from it and meets the vehicles' legs at grazing incidence. Together, the
+        // UAV goes to BS1 (south), which sees that roof.
+        let text = include_str!("../../../fixtures/suite/office_pair.toml");
+        let mut sc = ImagingScenario::from_toml_str(text).expect("office");
+        sc.apply_quick();
+        let world = build_world(&sc).expect("world");
+        let uav = |sc: &ImagingScenario| {
+            let plans = plan_pairs(sc, &world).expect("pairs");
+            assert_eq!(plans.len(), sc.apertures.len());
+            let p = plans
+                .iter()
+                .find(|p| sc.apertures[p.aperture].name == "UAV");
+            sc.base_stations[p.expect("UAV pair").bs].name.clone()
+        };
+        assert_eq!(sc.imaging.pairing, Pairing::PerAperture);
+        assert_eq!(uav(&sc), "BS4");
+        let joint = text.replace("[imaging]\n", "[imaging]\npairing = \"joint\"\n");
+        let mut sc = ImagingScenario::from_toml_str(&joint).expect("office, joint");
+        sc.apply_quick();
+        assert_eq!(sc.imaging.pairing, Pairing::Joint);
+        assert_eq!(uav(&sc), "BS1");
+        let bad = text.replace("[imaging]\n", "[imaging]\npairing = \"best\"\n");
+        let e = ImagingScenario::from_toml_str(&bad).expect_err("unknown pairing");
+        assert!(e.to_string().contains("best"), "{e}");
+    }
+
+    #[test]
+    fn a_face_at_grazing_incidence_returns_nothing_and_broadside_everything() {
+        let (n, p) = (Vec3::Z, Vec3::ZERO);
+        let above = Vec3::new(0.0, 0.0, 10.0);
+        assert!((echo_weight(n, p, above, above) - 1.0).abs() < 1e-6);
+        let grazing = Vec3::new(10.0, 0.0, 0.0);
+        assert!(echo_weight(n, p, grazing, above).abs() < 1e-6);
+        let behind = Vec3::new(0.0, 0.0, -10.0);
+        assert_eq!(echo_weight(n, p, behind, above), 0.0);
+        let at_60 = Vec3::new(3f32.sqrt() * 5.0, 0.0, 5.0); // 60° from the normal
+        assert!((echo_weight(n, p, at_60, above) - 0.5).abs() < 1e-6);
     }
 
     #[test]
