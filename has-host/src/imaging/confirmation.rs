@@ -163,6 +163,43 @@ pub fn denials(
         .collect()
 }
 
+/// Which points survive the confirmation: [`denials`] in rounds, each on the points the
+/// previous rounds kept, until a round drops nothing; a point goes when `need` or more pairs
+/// deny it. A dropped point is a false alarm, not a surface, so it no longer blocks the legs
+/// it crossed: the points behind it are tested again (each round drops at least one point, so
+/// this ends).
+pub fn confirmed(
+    points: &[Vec3],
+    mask: &[u64],
+    sights: &[PairSight<'_>],
+    terrain: &Scene,
+    voxel_m: f32,
+    support_m: f32,
+    need: u8,
+) -> Vec<bool> {
+    let mut alive: Vec<usize> = (0..points.len()).collect();
+    loop {
+        let p: Vec<Vec3> = alive.iter().map(|&i| points[i]).collect();
+        let m: Vec<u64> = alive.iter().map(|&i| mask[i]).collect();
+        let d = denials(&p, &m, sights, terrain, voxel_m, support_m);
+        let before = alive.len();
+        alive = alive
+            .iter()
+            .zip(&d)
+            .filter(|(_, &n)| n < need)
+            .map(|(&i, _)| i)
+            .collect();
+        if alive.len() == before {
+            break;
+        }
+    }
+    let mut keep = vec![false; points.len()];
+    for i in alive {
+        keep[i] = true;
+    }
+    keep
+}
+
 /// The voxel keys of `k` and its 26 neighbours.
 fn neighbours(k: [i64; 3]) -> impl Iterator<Item = [i64; 3]> {
     (-1..=1).flat_map(move |dz| {
@@ -267,6 +304,23 @@ mod tests {
         let sights = around();
         let d = denials(&pts, &mask, &sights, &open_ground(), 0.5, 1.5);
         assert!(d.iter().all(|&n| n == 2), "{d:?}");
+    }
+
+    #[test]
+    fn a_false_alarm_that_hid_another_from_a_pair_hides_nothing_once_dropped() {
+        // Two of pair 0's false alarms on open ground: q sits on the leg from pair 1's
+        // aperture to p. In the first round q is denied by pairs 1 and 2 and p by pair 2 alone;
+        // without q, pair 1 sees p too.
+        let p = Vec3::new(0.0, 0.0, 1.0);
+        let q = Vec3::new(5.0, 0.0, 1.25);
+        let sights = around();
+        let once = denials(&[p, q], &[1, 1], &sights, &open_ground(), 0.5, 1.5);
+        assert_eq!(once, vec![1, 2]);
+        let keep = confirmed(&[p, q], &[1, 1], &sights, &open_ground(), 0.5, 1.5, 2);
+        assert_eq!(keep, vec![false, false]);
+        // A surface point that three pairs detected stays whatever the rounds do.
+        let keep = confirmed(&[p, q], &[7, 1], &sights, &open_ground(), 0.5, 1.5, 2);
+        assert_eq!(keep, vec![true, false]);
     }
 
     #[test]

@@ -32,7 +32,7 @@ use std::collections::HashMap;
 use glam::Vec3;
 
 use super::config::{ImagingScenario, Pairing};
-use super::confirmation::{denials, PairSight};
+use super::confirmation::{confirmed, PairSight};
 use super::driver::{image_pair, ImagingError, PairImage, PairPlan, RunOptions};
 use super::sensors::{nyquist_spacing_m, pair_resolution_m};
 use rayon::prelude::*;
@@ -593,11 +593,11 @@ pub fn fuse(
 }
 
 /// The fused cloud without the points that `imaging.cross_pair_denials` or more pairs which see
-/// their place did not detect ([`super::confirmation`]); unchanged when that is 0. In rounds,
-/// until a round drops nothing: a dropped point is a false alarm, not a surface, so the legs it
-/// blocked are tested again without it (the suite's office: a false cluster 30 m from the
-/// buildings stayed because the legs of two of the three pairs that see it crossed other false
-/// points, which the same round dropped).
+/// their place did not detect ([`super::confirmation::confirmed`]: in rounds, until a round
+/// drops nothing); unchanged when that is 0. Rounds, because a dropped point is a false alarm,
+/// not a surface, and the legs it blocked are tested again without it (the suite's office: a
+/// false cluster 30 m from the buildings stayed because the legs of two of the three pairs that
+/// see it crossed other false points, which the same round dropped).
 pub fn confirm(
     sc: &ImagingScenario,
     world: &World,
@@ -626,45 +626,31 @@ pub fn confirm(
             }
         })
         .collect();
-    // Rounds: a point dropped as a false alarm is no surface, so it hides nothing; a leg it
-    // blocked is tested again without it. Each round drops at least one point or ends.
-    let support = support_distance_m(sc, plans);
-    let mut fused = fused;
-    let mut unconfirmed = 0;
-    loop {
-        let d = denials(
-            &fused.points,
-            &fused.pair_mask,
-            &sights,
-            &world.terrain.scene,
-            sc.imaging.voxel_m,
-            support,
-        );
-        let keep: Vec<bool> = d.iter().map(|&n| n < need).collect();
-        let dropped = keep.iter().filter(|&&k| !k).count();
-        if dropped == 0 {
-            break;
-        }
-        unconfirmed += dropped;
-        fn pick<T: Copy>(v: &[T], keep: &[bool]) -> Vec<T> {
-            v.iter()
-                .zip(keep)
-                .filter(|(_, &k)| k)
-                .map(|(x, _)| *x)
-                .collect()
-        }
-        fused = FusedCloud {
-            points: pick(&fused.points, &keep),
-            weight: pick(&fused.weight, &keep),
-            intensity: pick(&fused.intensity, &keep),
-            pairs: pick(&fused.pairs, &keep),
-            pair_mask: pick(&fused.pair_mask, &keep),
-            pair_factor: fused.pair_factor,
-            unconfirmed: 0,
-        };
+    let keep = confirmed(
+        &fused.points,
+        &fused.pair_mask,
+        &sights,
+        &world.terrain.scene,
+        sc.imaging.voxel_m,
+        support_distance_m(sc, plans),
+        need,
+    );
+    fn pick<T: Copy>(v: &[T], keep: &[bool]) -> Vec<T> {
+        v.iter()
+            .zip(keep)
+            .filter(|(_, &k)| k)
+            .map(|(x, _)| *x)
+            .collect()
     }
-    fused.unconfirmed = unconfirmed;
-    fused
+    FusedCloud {
+        points: pick(&fused.points, &keep),
+        weight: pick(&fused.weight, &keep),
+        intensity: pick(&fused.intensity, &keep),
+        pairs: pick(&fused.pairs, &keep),
+        pair_mask: pick(&fused.pair_mask, &keep),
+        pair_factor: fused.pair_factor,
+        unconfirmed: keep.iter().filter(|&&k| !k).count(),
+    }
 }
 
 /// For each fused point, the (aperture centre, panel centre) of every pair that observed it: the
