@@ -21,7 +21,8 @@
 //! coarsest resolution cell of the pairs, [`super::run::support_distance_m`]: the surface that
 //! gave `p` lies within it). A pair that sees `p` and does not confirm it *denies* it. A point
 //! is dropped when `denials` or more pairs deny it and none of those that detected it is among
-//! them (pairs that kept the fused voxel never deny it).
+//! them (pairs that kept the fused voxel never deny it). [`confirmed`] repeats the test on the
+//! points kept until nothing more is dropped: a dropped point no longer blocks a leg.
 //!
 //! **Why two.** A seeing pair misses a true surface cell often — grazing incidence, its weaker
 //! legs, the detection's own miss rate: on the suite's quick clouds a third to a half of the
