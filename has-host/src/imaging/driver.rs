@@ -874,12 +874,16 @@ pub fn image_pair(
                 let j = b.offset + i;
                 let q = img_r.get(j).copied();
                 let g = gidx(b, i);
-                let kappa = c2[g] as f64 / (c.mean[g] as f64).powi(2);
-                let looks = effective_looks(c.count[g].max(1.0) as usize, looks_per_voxel);
-                let a = alpha
-                    .alpha(c.count[g])
-                    .max(pareto_factor(kappa, looks, pfa) as f32);
-                det[j] = detected(img[j].norm_sqr(), c.mean[g], img_i[j].re, q, a, beta);
+                let (i2, cm, p) = (img[j].norm_sqr(), c.mean[g], img_i[j].re);
+                let a = alpha.alpha(c.count[g]);
+                // The spiky-clutter factor only ever raises the threshold: test it only on
+                // what passes the exponential one.
+                det[j] = detected(i2, cm, p, q, a, beta) && {
+                    let kappa = c2[g] as f64 / (cm as f64).powi(2);
+                    let looks = effective_looks(c.count[g].max(1.0) as usize, looks_per_voxel);
+                    let a = a.max(pareto_factor(kappa, looks, pfa) as f32);
+                    detected(i2, cm, p, q, a, beta)
+                };
             }
         }
         det

@@ -324,9 +324,10 @@ pub fn default_positions(sc: &ImagingScenario, ai: usize) -> usize {
 /// [`RunError::NoPairs`] if no pair sees any surface in the region.
 pub fn plan_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, RunError> {
     let (lo, hi) = sc.region();
-    // What pair (bs, ai) sees of the in-region non-ground surface: per visible scatterer its
-    // index and its echo-weighted area `A·cos θ_tx·cos θ_rx` ([`echo_weight`]), and the plain
-    // visible area (the pair's coverage, m²).
+    // What pair (bs, ai) sees of the in-region non-ground surface: the plain visible area (the
+    // pair's coverage, m²) and, for the joint pairing only, per visible scatterer its index and
+    // its echo-weighted area `A·cos θ_tx·cos θ_rx` ([`echo_weight`]).
+    let weigh = sc.imaging.pairing == Pairing::Joint;
     let sight = |bs: usize, ai: usize| -> Result<(Vec<(u32, f32)>, f64), RunError> {
         let a = sc.array(bs);
         let tx = sc.aperture(ai, 2).centre();
@@ -342,7 +343,9 @@ pub fn plan_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, 
                 continue;
             }
             area += s.area_m2 as f64;
-            seen.push((i, s.area_m2 * echo_weight(s.normal, s.pos, tx, a.centre)));
+            if weigh {
+                seen.push((i, s.area_m2 * echo_weight(s.normal, s.pos, tx, a.centre)));
+            }
         }
         Ok((seen, area))
     };
