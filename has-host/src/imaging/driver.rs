@@ -368,7 +368,6 @@ pub fn image_pair(
     let im = &sc.imaging;
     let geo = pair_geometry(sc, plan);
     let (lo, hi) = sc.region();
-    let lambda = sc.wavelength_m();
     let window = sc.window()?;
     let n_sc = sc.radar.subcarriers;
     let rc = RangeCompressor::new(RangeConfig {
@@ -441,16 +440,6 @@ pub fn image_pair(
     } else {
         None
     };
-    // Reference window and CFAR factors from the pair's resolution cell at the region centre.
-    let (cell_m3, xz_res) = (geo.cell_m3, geo.cell_vertical_m);
-    let cell_m = cell_m3.cbrt();
-    let cfar = |voxel_m: f32, pfa: f64| -> ([usize; 3], CfarFactors) {
-        let radius = layer_window(cell_m, voxel_m);
-        let voxels = radius.iter().map(|&w| 2 * w + 1).product();
-        let looks = layer_looks_per_voxel(voxel_m, cell_m3, xz_res);
-        (radius, CfarFactors::new(pfa, voxels, looks))
-    };
-
     // Thinned arrays and apertures are jittered, not periodic (no grating lobes; see
     // `PlanarArray::elements_jittered`), with a draw of their own per pair and pass.
     let thin_seed = src.seed ^ 0x5A4D_F00D_0000_0000;
@@ -476,26 +465,6 @@ pub fn image_pair(
         pulse_error,
         ..PairStats::default()
     };
-    let bp_cfg = |grid: VoxelGrid| BpConfig {
-        grid,
-        wavelength_m: lambda as f32,
-        r0_m: geo.r0_m as f32,
-        dr_m: geo.dr_m as f32,
-        interp: Interp::Linear,
-        phase: PhaseEval::Poly,
-    };
-    // The incoherent pass: back-projection of the profiles' power |s|² with no carrier phase
-    // (a wavelength far beyond any path), i.e. Σ_k |s_k(r_k(v))|² — the expected |I(v)|² if the
-    // echoes in the range cells that focus at v were incoherent with respect to v.
-    let bp_inc_cfg = |grid: VoxelGrid| BpConfig {
-        grid,
-        wavelength_m: INCOHERENT_WAVELENGTH_M,
-        r0_m: geo.r0_m as f32,
-        dr_m: geo.dr_m as f32,
-        interp: Interp::Linear,
-        phase: PhaseEval::Poly,
-    };
-
     // ---- The frames: the data's element-major (the receive-coherence pass reads one element's
     // profiles over every transmit position), the terrain model's frame-major.
     let mut frames = vec![Complex32::new(0.0, 0.0); nt * ne * nb];
@@ -537,91 +506,27 @@ pub fn image_pair(
 
     // ---- Coarse pass: the mask.
     let cv = im.coarse_voxel_m;
-    let cdims = dims_of(lo, hi, cv);
-    let cgrid = VoxelGrid {
-        origin: lo,
-        spacing: Vec3::splat(cv),
-        dims: cdims,
-    };
-    let cbp = Backprojector::new(bp_cfg(cgrid))?;
-    let cbp_inc = Backprojector::new(bp_inc_cfg(cgrid))?;
-    let mut cimg = vec![Complex32::new(0.0, 0.0); cbp.voxels()];
-    let mut cimg_m = vec![Complex32::new(0.0, 0.0); if clutter_ref { cbp.voxels() } else { 0 }];
-    let mut cimg_i = vec![Complex32::new(0.0, 0.0); if clutter_ref { cbp.voxels() } else { 0 }];
-    let rx_c_local: Vec<Vec3> = rx_c_idx.iter().map(|&e| cgrid.local(rx_fine[e])).collect();
-    let mut prof = vec![Complex32::new(0.0, 0.0); rx_c_idx.len() * nb];
-    let mut mprof = vec![Complex32::new(0.0, 0.0); if clutter_ref { prof.len() } else { 0 }];
-    let mut iprof = mprof.clone();
-    let tile = cimg.len().div_ceil(rayon::current_num_threads() * 4).max(1);
-    {
-        let mut accs = coarse_tiles(&cbp, &mut cimg, tile)?;
-        let mut accs_m = coarse_tiles(&cbp, &mut cimg_m, tile)?;
-        let mut accs_i = coarse_tiles(&cbp_inc, &mut cimg_i, tile)?;
-        for &f in &tx_c_idx {
-            gather(f, &mut rx_c_idx.iter().copied(), &mut prof, &mut mprof);
-            if clutter_ref {
-                excess_power_of(&prof, &mprof, &mut iprof);
-            }
-            let t = Instant::now();
-            let snap = Snapshot {
-                tx: cgrid.local(tx_fine[f]),
-                rx: &rx_c_local,
-                profiles: &iprof,
-                profile_len: nb,
-            };
-            accs_i
-                .par_iter_mut()
-                .try_for_each(|acc| cbp_inc.push_snapshot(acc, &snap))?;
-            let snap_m = Snapshot {
-                profiles: &mprof,
-                ..snap
-            };
-            accs_m
-                .par_iter_mut()
-                .try_for_each(|acc| cbp.push_snapshot(acc, &snap_m))?;
-            let snap = Snapshot {
-                profiles: &prof,
-                ..snap
-            };
-            accs.par_iter_mut()
-                .try_for_each(|acc| cbp.push_snapshot(acc, &snap))?;
-            stats.bp_s += t.elapsed().as_secs_f64();
+    let rx_c: Vec<Vec3> = rx_c_idx.iter().map(|&e| rx_fine[e]).collect();
+    let tx_c: Vec<Vec3> = tx_c_idx.iter().map(|&f| tx_fine[f]).collect();
+    let coarse = coarse_pass(
+        sc,
+        &geo,
+        clutter_ref,
+        &tx_c,
+        &rx_c,
+        &mut |k, prof, mprof| {
+            gather(tx_c_idx[k], &mut rx_c_idx.iter().copied(), prof, mprof);
+            Ok(())
+        },
+        &mut stats,
+        &mut || {
             done += 1;
             progress(done, total);
-        }
-    }
-    stats.coarse_voxels = cimg.len();
-    let passes = if clutter_ref { 3 } else { 1 };
-    stats.backprojections += (passes * cimg.len() * rx_c_idx.len() * tx_c_idx.len()) as f64;
+        },
+    )?;
+    let (cdims, coarse_detected) = (coarse.dims, coarse.detected);
     let [cx, cy, cz] = cdims;
-    let coarse_in_region = |i: usize| {
-        let q = Vec3::new(
-            (i % cx) as f32,
-            ((i / cx) % cy) as f32,
-            (i / (cx * cy)) as f32,
-        );
-        let p = lo + q * cv;
-        sc.box_touches_region(p - Vec3::splat(cv), p + Vec3::splat(cv))
-    };
-    let coarse_detected: Vec<bool> = if clutter_ref {
-        let (radius, alpha) = cfar(cv, im.mask_false_alarm_probability);
-        let pm: Vec<f32> = cimg_m.iter().map(|z| z.norm_sqr()).collect();
-        let c = local_mean(&pm, cdims, radius);
-        (0..cimg.len())
-            .map(|i| {
-                let a = alpha.alpha(c.count[i]);
-                detected(cimg[i].norm_sqr(), c.mean[i], cimg_i[i].re, None, a, 0.0)
-                    && coarse_in_region(i)
-            })
-            .collect()
-    } else {
-        let cmax = cimg.iter().map(|z| z.norm()).fold(0.0f32, f32::max);
-        let cthr = cmax * 10f32.powf(im.coarse_threshold_db / 20.0);
-        cimg.iter()
-            .map(|z| cmax > 0.0 && z.norm() >= cthr)
-            .collect()
-    };
-    let mut mask = vec![false; cimg.len()];
+    let mut mask = vec![false; coarse_detected.len()];
     for (i, _) in coarse_detected.iter().enumerate().filter(|(_, &d)| d) {
         let (x, y, zz) = (i % cx, (i / cx) % cy, i / (cx * cy));
         for dz in -1i64..=1 {
@@ -641,9 +546,6 @@ pub fn image_pair(
             }
         }
     }
-    drop(cimg_m);
-    drop(cimg_i);
-    drop(cimg);
 
     // ---- Fine pass over the bricks that touch the mask.
     let v = im.voxel_m;
@@ -692,8 +594,8 @@ pub fn image_pair(
                     spacing: Vec3::splat(v),
                     dims,
                 };
-                let bp = Backprojector::new(bp_cfg(grid))?;
-                let bp_inc = Backprojector::new(bp_inc_cfg(grid))?;
+                let bp = Backprojector::new(bp_config(sc, &geo, grid, false))?;
+                let bp_inc = Backprojector::new(bp_config(sc, &geo, grid, true))?;
                 let n = bp.voxels();
                 bricks.push(Brick {
                     rx_local: rx_fine.iter().map(|&p| grid.local(p)).collect(),
@@ -831,7 +733,8 @@ pub fn image_pair(
     if opts.fixed_point {
         img = qimg;
     }
-    stats.backprojections += (passes * offset * rx_fine.len() * tx_fine.len()) as f64;
+    stats.backprojections +=
+        (if clutter_ref { 3 } else { 1 } * offset * rx_fine.len() * tx_fine.len()) as f64;
     stats.synth_s = src.synth_s + model.as_ref().map_or(0.0, |m| m.synth_s);
     stats.visible_scatterers = src.first_visible;
 
@@ -844,11 +747,11 @@ pub fn image_pair(
             im.false_alarms_per_image,
             offset,
             v,
-            cell_m3,
+            geo.cell_m3,
             im.false_alarm_probability,
         );
         stats.false_alarm_probability = pfa;
-        let (radius, alpha) = cfar(v, pfa);
+        let (radius, alpha) = cfar_window(&geo, v, pfa);
         let beta = coherence_factor(pfa);
         let mut pm = vec![f32::NAN; stats.region_voxels];
         let gidx = |b: &Brick, i: usize| {
@@ -867,7 +770,7 @@ pub fn image_pair(
         pm.iter_mut().for_each(|x| *x *= *x);
         let c2 = local_mean(&pm, fdims, radius).mean;
         drop(pm);
-        let looks_per_voxel = layer_looks_per_voxel(v, cell_m3, xz_res);
+        let looks_per_voxel = layer_looks_per_voxel(v, geo.cell_m3, geo.cell_vertical_m);
         let mut det = vec![false; offset];
         for b in &bricks {
             for i in 0..b.bp.voxels() {
@@ -900,6 +803,159 @@ pub fn image_pair(
         points,
         intensity,
         stats,
+    })
+}
+
+/// The coarse pass's outcome: its grid's dimensions and, per coarse voxel (x fastest), whether it
+/// was detected inside the region.
+struct CoarseDetections {
+    dims: [usize; 3],
+    detected: Vec<bool>,
+}
+
+/// The has-dsp configuration of a pair's back-projection on `grid`: coherent at the carrier's
+/// wavelength, or with `incoherent` the incoherent pass — the profiles' power |s|² with no
+/// carrier phase (a wavelength far beyond any path, [`INCOHERENT_WAVELENGTH_M`]), i.e.
+/// Σ_k |s_k(r_k(v))|², the expected |I(v)|² if the echoes in the range cells that focus at v
+/// were incoherent with respect to v.
+fn bp_config(
+    sc: &ImagingScenario,
+    geo: &PairGeometry,
+    grid: VoxelGrid,
+    incoherent: bool,
+) -> BpConfig {
+    BpConfig {
+        grid,
+        wavelength_m: if incoherent {
+            INCOHERENT_WAVELENGTH_M
+        } else {
+            sc.wavelength_m() as f32
+        },
+        r0_m: geo.r0_m as f32,
+        dr_m: geo.dr_m as f32,
+        interp: Interp::Linear,
+        phase: PhaseEval::Poly,
+    }
+}
+
+/// The detection test's reference window (voxels each side) and CFAR factors on a lattice of
+/// `voxel_m` at per-voxel false-alarm probability `pfa`, from the pair's resolution cell at the
+/// region centre.
+fn cfar_window(geo: &PairGeometry, voxel_m: f32, pfa: f64) -> ([usize; 3], CfarFactors) {
+    let radius = layer_window(geo.cell_m3.cbrt(), voxel_m);
+    let voxels = radius.iter().map(|&w| 2 * w + 1).product();
+    let looks = layer_looks_per_voxel(voxel_m, geo.cell_m3, geo.cell_vertical_m);
+    (radius, CfarFactors::new(pfa, voxels, looks))
+}
+
+/// The coarse pass (module docs): the region on the `imaging.coarse_voxel_m` grid from snapshots
+/// at transmit positions `tx` with receive elements `rx`; `frame(k, data, model)` fills the
+/// `k`-th snapshot's profiles of the data and (with `clutter_ref`) of the terrain model, one row
+/// of `geo.n_bins` per element. Detection against the terrain model at
+/// `mask_false_alarm_probability` (with `detection = "peak"`: within `coarse_threshold_db` of
+/// the coarse peak), only voxels whose neighbourhood touches the region. `tick` is called after
+/// every snapshot; work and time go to `stats`.
+#[allow(clippy::too_many_arguments)]
+fn coarse_pass(
+    sc: &ImagingScenario,
+    geo: &PairGeometry,
+    clutter_ref: bool,
+    tx: &[Vec3],
+    rx: &[Vec3],
+    frame: &mut dyn FnMut(usize, &mut [Complex32], &mut [Complex32]) -> Result<(), ImagingError>,
+    stats: &mut PairStats,
+    tick: &mut dyn FnMut(),
+) -> Result<CoarseDetections, ImagingError> {
+    let im = &sc.imaging;
+    let (lo, hi) = sc.region();
+    let nb = geo.n_bins;
+    let cv = im.coarse_voxel_m;
+    let cdims = dims_of(lo, hi, cv);
+    let cgrid = VoxelGrid {
+        origin: lo,
+        spacing: Vec3::splat(cv),
+        dims: cdims,
+    };
+    let cbp = Backprojector::new(bp_config(sc, geo, cgrid, false))?;
+    let cbp_inc = Backprojector::new(bp_config(sc, geo, cgrid, true))?;
+    let mut cimg = vec![Complex32::new(0.0, 0.0); cbp.voxels()];
+    let mut cimg_m = vec![Complex32::new(0.0, 0.0); if clutter_ref { cbp.voxels() } else { 0 }];
+    let mut cimg_i = vec![Complex32::new(0.0, 0.0); if clutter_ref { cbp.voxels() } else { 0 }];
+    let rx_local: Vec<Vec3> = rx.iter().map(|&p| cgrid.local(p)).collect();
+    let mut prof = vec![Complex32::new(0.0, 0.0); rx.len() * nb];
+    let mut mprof = vec![Complex32::new(0.0, 0.0); if clutter_ref { prof.len() } else { 0 }];
+    let mut iprof = mprof.clone();
+    let tile = cimg.len().div_ceil(rayon::current_num_threads() * 4).max(1);
+    {
+        let mut accs = coarse_tiles(&cbp, &mut cimg, tile)?;
+        let mut accs_m = coarse_tiles(&cbp, &mut cimg_m, tile)?;
+        let mut accs_i = coarse_tiles(&cbp_inc, &mut cimg_i, tile)?;
+        for (k, &t_pos) in tx.iter().enumerate() {
+            frame(k, &mut prof, &mut mprof)?;
+            if clutter_ref {
+                excess_power_of(&prof, &mprof, &mut iprof);
+            }
+            let t = Instant::now();
+            let snap = Snapshot {
+                tx: cgrid.local(t_pos),
+                rx: &rx_local,
+                profiles: &iprof,
+                profile_len: nb,
+            };
+            accs_i
+                .par_iter_mut()
+                .try_for_each(|acc| cbp_inc.push_snapshot(acc, &snap))?;
+            let snap_m = Snapshot {
+                profiles: &mprof,
+                ..snap
+            };
+            accs_m
+                .par_iter_mut()
+                .try_for_each(|acc| cbp.push_snapshot(acc, &snap_m))?;
+            let snap = Snapshot {
+                profiles: &prof,
+                ..snap
+            };
+            accs.par_iter_mut()
+                .try_for_each(|acc| cbp.push_snapshot(acc, &snap))?;
+            stats.bp_s += t.elapsed().as_secs_f64();
+            tick();
+        }
+    }
+    stats.coarse_voxels = cimg.len();
+    let passes = if clutter_ref { 3 } else { 1 };
+    stats.backprojections += (passes * cimg.len() * rx.len() * tx.len()) as f64;
+    let [cx, cy, _] = cdims;
+    let coarse_in_region = |i: usize| {
+        let q = Vec3::new(
+            (i % cx) as f32,
+            ((i / cx) % cy) as f32,
+            (i / (cx * cy)) as f32,
+        );
+        let p = lo + q * cv;
+        sc.box_touches_region(p - Vec3::splat(cv), p + Vec3::splat(cv))
+    };
+    let detected: Vec<bool> = if clutter_ref {
+        let (radius, alpha) = cfar_window(geo, cv, im.mask_false_alarm_probability);
+        let pm: Vec<f32> = cimg_m.iter().map(|z| z.norm_sqr()).collect();
+        let c = local_mean(&pm, cdims, radius);
+        (0..cimg.len())
+            .map(|i| {
+                let a = alpha.alpha(c.count[i]);
+                detected(cimg[i].norm_sqr(), c.mean[i], cimg_i[i].re, None, a, 0.0)
+                    && coarse_in_region(i)
+            })
+            .collect()
+    } else {
+        let cmax = cimg.iter().map(|z| z.norm()).fold(0.0f32, f32::max);
+        let cthr = cmax * 10f32.powf(im.coarse_threshold_db / 20.0);
+        cimg.iter()
+            .map(|z| cmax > 0.0 && z.norm() >= cthr)
+            .collect()
+    };
+    Ok(CoarseDetections {
+        dims: cdims,
+        detected,
     })
 }
 
