@@ -354,20 +354,17 @@ enum Accs<'a> {
     Q15(Vec<AccQ15<'a>>),
 }
 
-/// Images one pair; `progress(done, total)` is called after every frame of both passes.
-///
-/// # Errors
-/// [`ImagingError`] from has-dsp or echo synthesis (bad geometry, lengths).
-pub fn image_pair(
+/// The frame sources of pair `plan`: the data (the scene, its noise seeded per pair) and, with
+/// `detection = "clutter"`, the bare known terrain through the same pair (module docs of
+/// `super::detection`).
+fn frame_sources<'a>(
     sc: &ImagingScenario,
-    world: &World,
+    world: &'a World,
     plan: &PairPlan,
+    geo: &PairGeometry,
     opts: RunOptions,
-    progress: &(dyn Fn(u64, u64) + Sync),
-) -> Result<PairImage, ImagingError> {
+) -> Result<(FrameSource<'a>, Option<FrameSource<'a>>), ImagingError> {
     let im = &sc.imaging;
-    let geo = pair_geometry(sc, plan);
-    let (lo, hi) = sc.region();
     let window = sc.window()?;
     let n_sc = sc.radar.subcarriers;
     let rc = RangeCompressor::new(RangeConfig {
@@ -390,10 +387,6 @@ pub fn image_pair(
     };
     echo_cfg.kernel_oversample = 64;
     let synth = EchoSynth::new(echo_cfg.clone())?;
-    let clutter_ref = im.detection == Detection::Clutter;
-    // The receive-coherence test (module docs of `super::detection`): one more f32 pass in a
-    // fixed-point run, none in an f32 one.
-    let coherence = clutter_ref && im.coherence_test;
     let raw = if opts.raw_ofdm {
         let symbols = crate::echo::qpsk_symbols(n_sc, im.seed);
         let mut reference = vec![Complex32::new(0.0, 0.0); n_sc];
@@ -408,7 +401,7 @@ pub fn image_pair(
         None
     };
     let (scene, set) = (&world.scene, &world.scatterers);
-    let mut src = FrameSource {
+    let src = FrameSource {
         scene,
         set,
         synth,
@@ -421,9 +414,8 @@ pub fn image_pair(
         synth_s: 0.0,
         first_visible: 0,
     };
-    let pulse_error = src.synth.kernel().error_bound();
     // The bare known terrain through the same pair (module docs of `super::detection`).
-    let mut model = if clutter_ref {
+    let model = if im.detection == Detection::Clutter {
         Some(FrameSource {
             scene: &world.terrain.scene,
             set: &world.terrain.scatterers,
@@ -440,22 +432,65 @@ pub fn image_pair(
     } else {
         None
     };
-    // Thinned arrays and apertures are jittered, not periodic (no grating lobes; see
-    // `PlanarArray::elements_jittered`), with a draw of their own per pair and pass.
-    let thin_seed = src.seed ^ 0x5A4D_F00D_0000_0000;
-    let rx_fine = geo.array.elements_jittered(im.element_step, thin_seed);
-    let tx_fine = geo
+    Ok((src, model))
+}
+
+/// The pair's receive elements and transmit positions after `imaging.element_step` and
+/// `position_step`. Thinned arrays and apertures are jittered, not periodic (no grating lobes;
+/// see [`PlanarArray::elements_jittered`]), with a draw of their own per pair (`seed`, the
+/// pair's data seed).
+fn thinned_sensors(sc: &ImagingScenario, geo: &PairGeometry, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
+    let im = &sc.imaging;
+    let thin_seed = seed ^ 0x5A4D_F00D_0000_0000;
+    let rx = geo.array.elements_jittered(im.element_step, thin_seed);
+    let tx = geo
         .aperture
         .positions_jittered(im.position_step, thin_seed ^ 1);
+    (rx, tx)
+}
+
+/// Indices of every `step`-th row and column of the `ne` thinned receive elements and of every
+/// `step`-th of the `nt` thinned transmit positions.
+fn every_nth(
+    sc: &ImagingScenario,
+    geo: &PairGeometry,
+    ne: usize,
+    nt: usize,
+    step: usize,
+) -> (Vec<usize>, Vec<usize>) {
+    let step = step.max(1);
+    let cols = geo.array.cols.div_ceil(sc.imaging.element_step.max(1));
+    let rx = (0..ne)
+        .filter(|&e| (e / cols).is_multiple_of(step) && (e % cols).is_multiple_of(step))
+        .collect();
+    (rx, (0..nt).step_by(step).collect())
+}
+
+/// Images one pair; `progress(done, total)` is called after every frame of both passes.
+///
+/// # Errors
+/// [`ImagingError`] from has-dsp or echo synthesis (bad geometry, lengths).
+pub fn image_pair(
+    sc: &ImagingScenario,
+    world: &World,
+    plan: &PairPlan,
+    opts: RunOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<PairImage, ImagingError> {
+    let im = &sc.imaging;
+    let geo = pair_geometry(sc, plan);
+    let (lo, hi) = sc.region();
+    let clutter_ref = im.detection == Detection::Clutter;
+    // The receive-coherence test (module docs of `super::detection`): one more f32 pass in a
+    // fixed-point run, none in an f32 one.
+    let coherence = clutter_ref && im.coherence_test;
+    let (mut src, mut model) = frame_sources(sc, world, plan, &geo, opts)?;
+    let pulse_error = src.synth.kernel().error_bound();
+    let (rx_fine, tx_fine) = thinned_sensors(sc, &geo, src.seed);
     // The coarse pass reads every `coarse_step`-th of the fine pass's thinned element rows and
     // columns and transmit positions, from the same frames: each frame is synthesised once.
-    let cs = im.coarse_step.max(1);
     let (nt, ne, nb) = (tx_fine.len(), rx_fine.len(), geo.n_bins);
-    let cols = geo.array.cols.div_ceil(im.element_step.max(1));
-    let rx_c_idx: Vec<usize> = (0..ne)
-        .filter(|&e| (e / cols).is_multiple_of(cs) && (e % cols).is_multiple_of(cs))
-        .collect();
-    let tx_c_idx: Vec<usize> = (0..nt).step_by(cs).collect();
+    let (rx_c_idx, tx_c_idx) = every_nth(sc, &geo, ne, nt, im.coarse_step);
     let total = (2 * nt + tx_c_idx.len()) as u64 + if coherence { ne as u64 } else { 0 };
     let mut done = 0u64;
     let mut stats = PairStats {
@@ -806,6 +841,10 @@ pub fn image_pair(
     })
 }
 
+/// Fills snapshot `k`'s profiles of the data and of the terrain model (see [`coarse_pass`]).
+type SnapshotFill<'a> =
+    dyn FnMut(usize, &mut [Complex32], &mut [Complex32]) -> Result<(), ImagingError> + 'a;
+
 /// The coarse pass's outcome: its grid's dimensions and, per coarse voxel (x fastest), whether it
 /// was detected inside the region.
 struct CoarseDetections {
@@ -862,7 +901,7 @@ fn coarse_pass(
     clutter_ref: bool,
     tx: &[Vec3],
     rx: &[Vec3],
-    frame: &mut dyn FnMut(usize, &mut [Complex32], &mut [Complex32]) -> Result<(), ImagingError>,
+    frame: &mut SnapshotFill<'_>,
     stats: &mut PairStats,
     tick: &mut dyn FnMut(),
 ) -> Result<CoarseDetections, ImagingError> {
