@@ -19,6 +19,7 @@ pub mod io;
 pub mod knn;
 pub mod localize;
 pub mod material;
+pub mod memory;
 pub mod mesh;
 pub mod metrics;
 pub mod multipath;

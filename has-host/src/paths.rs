@@ -59,6 +59,17 @@ use crate::C_M_PER_S;
 /// Largest supported reflection order.
 pub const MAX_ORDER: usize = 8;
 
+/// Most shoot-and-bounce rays per transmitter, 2³⁰ ≈ 1.1·10⁹: a bound on the work of
+/// [`Tracer::prepare_tx`] (one BVH cast per ray and bounce; ≈ 8·10⁶ rays/s at order 3 on the
+/// factory fixture on two cores, so about two minutes). Beyond it a run is refused, not left to
+/// run for hours.
+pub const MAX_SBR_RAYS: usize = 1 << 30;
+
+/// Largest coordinate magnitude (m) of a transmitter or receiver: the scene's ray tests are
+/// `f32`, whose spacing at 10⁶ m is 6 cm, two wavelengths at 10 GHz; farther out an obstruction
+/// test resolves nothing of a building.
+pub const MAX_COORD_M: f64 = 1e6;
+
 /// Which antenna polarisation [`Path::a`] uses (same at both ends).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Polarization {
@@ -88,7 +99,8 @@ pub struct TracerConfig {
     pub frequency_hz: f64,
     /// Highest number of reflections per path (0 = line of sight only), at most [`MAX_ORDER`].
     pub max_order: usize,
-    /// Include the line-of-sight path when unobstructed.
+    /// Include the line-of-sight path when unobstructed and the ends are at least a wavelength
+    /// apart (far field; coincident ends, a monostatic radar, have echoes only).
     pub los: bool,
     /// Polarisation of [`Path::a`].
     pub polarization: Polarization,
@@ -139,6 +151,18 @@ pub enum PathError {
         /// The position.
         value: DVec3,
     },
+    /// A position lies farther from the origin than [`MAX_COORD_M`] on some axis.
+    #[error(
+        "{what}: position ({}, {}, {}) is beyond ±{MAX_COORD_M:e} m (the scene's f32 ray tests \
+         resolve no better than 6 cm there)",
+        value.x, value.y, value.z
+    )]
+    FarPosition {
+        /// `"tx"` or `"rx"`.
+        what: &'static str,
+        /// The position.
+        value: DVec3,
+    },
     /// A configuration value is out of range.
     #[error("{what}: {value} is out of range ({expected})")]
     OutOfRange {
@@ -148,6 +172,39 @@ pub enum PathError {
         value: f64,
         /// What was expected.
         expected: &'static str,
+    },
+    /// The frequency lies outside the range over which ITU-R P.2040 states the fit of a
+    /// scene material (as Sionna RT, which refuses it too).
+    #[error(
+        "frequency_hz: {freq_ghz} GHz is outside {lo_ghz}–{hi_ghz} GHz, where ITU-R P.2040 \
+         states the fit of material {material} (object {object})"
+    )]
+    MaterialFrequency {
+        /// The frequency, GHz.
+        freq_ghz: f64,
+        /// The material's name.
+        material: &'static str,
+        /// The first object made of it.
+        object: String,
+        /// The stated range, GHz.
+        lo_ghz: f64,
+        /// The stated range, GHz.
+        hi_ghz: f64,
+    },
+    /// The candidate search would need more memory than the machine has.
+    #[error(
+        "{what}: {count:.3e} facet sequences need {need_gib:.1} GiB, {have_gib:.1} GiB \
+         available (use shoot-and-bounce rays, or a lower max_order)"
+    )]
+    TooLarge {
+        /// What would be enumerated (`"exhaustive candidates"`).
+        what: &'static str,
+        /// How many sequences.
+        count: f64,
+        /// Estimated memory, GiB.
+        need_gib: f64,
+        /// Available memory, GiB.
+        have_gib: f64,
     },
 }
 
@@ -533,12 +590,26 @@ pub struct Tracer<'a> {
 }
 
 fn check_position(what: &'static str, p: DVec3) -> Result<(), PathError> {
-    if p.is_finite() {
-        Ok(())
-    } else {
+    if !p.is_finite() {
         Err(PathError::NonFinitePosition { what, value: p })
+    } else if p.abs().max_element() > MAX_COORD_M {
+        Err(PathError::FarPosition { what, value: p })
+    } else {
+        Ok(())
     }
 }
+
+/// Facet sequences of orders `1..=k` without immediate repeats over `f` facets,
+/// `Σ_j f·(f−1)^(j−1)` (what [`CandidateMode::Exhaustive`] enumerates), in `f64`: no overflow.
+fn exhaustive_sequences(f: usize, k: usize) -> f64 {
+    let f = f as f64;
+    (0..k).map(|j| f * (f - 1.0).max(0.0).powi(j as i32)).sum()
+}
+
+/// Bytes the exhaustive search holds per facet sequence at its peak: the sequence in the list of
+/// all and in the last order's frontier, its trie node and the trie's index entry.
+const EXHAUSTIVE_BYTES_PER_SEQUENCE: usize =
+    2 * std::mem::size_of::<([u32; MAX_ORDER], u8)>() + std::mem::size_of::<Node>() + 24;
 
 /// Unit vectors `(θ̂, φ̂)` of direction `d` (unit) and its angles `(θ, φ)`.
 fn spherical_basis(d: DVec3) -> (DVec3, DVec3, f64, f64) {
@@ -614,11 +685,24 @@ impl<'a> Tracer<'a> {
             });
         }
         if let CandidateMode::Sbr { rays } = config.candidates {
-            if rays == 0 {
+            if rays == 0 || rays > MAX_SBR_RAYS {
                 return Err(PathError::OutOfRange {
                     what: "sbr_rays",
-                    value: 0.0,
-                    expected: "at least 1",
+                    value: rays as f64,
+                    expected: "1 ..= 2^30 (MAX_SBR_RAYS)",
+                });
+            }
+        }
+        for o in &scene.objects {
+            let (lo, hi) = o.material.valid_range_ghz();
+            let g = f / 1e9;
+            if !(lo..=hi).contains(&g) {
+                return Err(PathError::MaterialFrequency {
+                    freq_ghz: g,
+                    material: o.material.name(),
+                    object: o.name.clone(),
+                    lo_ghz: lo,
+                    hi_ghz: hi,
                 });
             }
         }
@@ -641,6 +725,20 @@ impl<'a> Tracer<'a> {
             config.facet_dist_tol_m,
             config.vertical_tol_m,
         );
+        if config.candidates == CandidateMode::Exhaustive {
+            let count = exhaustive_sequences(facets.facets.len(), config.max_order);
+            let need = count * EXHAUSTIVE_BYTES_PER_SEQUENCE as f64;
+            if let Some(have) = crate::memory::available_memory_bytes() {
+                if need > have as f64 {
+                    return Err(PathError::TooLarge {
+                        what: "exhaustive candidates",
+                        count,
+                        need_gib: crate::memory::gib(need),
+                        have_gib: crate::memory::gib(have as f64),
+                    });
+                }
+            }
+        }
         let eta = scene
             .objects
             .iter()
@@ -818,7 +916,12 @@ impl<'a> Tracer<'a> {
         check_position("rx", rx)?;
         let tx = cand.tx;
         let mut paths = Vec::new();
-        if self.config.los && (rx - tx).length() > 0.0 && self.leg_clear(tx, rx, u32::MAX) {
+        // The far-field path model needs at least a wavelength between the ends: a receiver
+        // on the transmitter (a monostatic radar) has no line-of-sight path, only echoes.
+        if self.config.los
+            && (rx - tx).length() >= self.wavelength_m
+            && self.leg_clear(tx, rx, u32::MAX)
+        {
             paths.push(self.make_path(tx, rx, &[], &[], (rx - tx).length()));
         }
         let mut chain = [0u32; MAX_ORDER];

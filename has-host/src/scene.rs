@@ -222,6 +222,38 @@ impl Scene {
             .ray_traverse_miss(ray, |r, id| tris[idx[id] as usize].intersect(r))
     }
 
+    /// The object that encloses `p`, if any: `p` is inside a closed object, or under an open
+    /// sheet such as the ground, when the ray straight up hits something and every one of five
+    /// rays (up and four horizontal, tilted slightly off the axes so that none runs along a
+    /// wall or through an edge) that hits something first meets a face from behind (the ray
+    /// along the outward normal `(v1 − v0) × (v2 − v0)`). Returns the object of the upward hit.
+    /// No ray looks down: a building's floor and the ground under it coincide, and which of the
+    /// two a ray meets first is a tie.
+    /// Under a bridge or an overhang the upward ray meets a face's front: not enclosed. Assumes
+    /// outward normals, as the scene's shapes, OBJ/PLY meshes from the meshing and Sionna's
+    /// scenes have.
+    pub fn enclosing_object(&self, p: Vec3) -> Option<u32> {
+        const DIRS: [[f32; 3]; 5] = [
+            [0.013, 0.021, 1.0],
+            [1.0, 0.019, 0.007],
+            [-1.0, -0.023, 0.011],
+            [0.015, 1.0, -0.009],
+            [-0.021, -1.0, 0.013],
+        ];
+        let mut up = None;
+        for (k, d) in DIRS.iter().enumerate() {
+            let d = Vec3::from(*d).normalize();
+            match self.closest_hit(p, d, 0.0, f32::INFINITY) {
+                // From behind: the first (upward) one names the object.
+                Some(h) if h.normal.dot(d) > 0.0 => up = up.or(Some(h.object)),
+                Some(_) => return None,
+                None if k == 0 => return None,
+                None => {}
+            }
+        }
+        up
+    }
+
     /// [`Scene::closest_hit`] for many rays `(origin, unit dir)` at once, in parallel.
     pub fn closest_hits(&self, rays: &[(Vec3, Vec3)], tmax: f32) -> Vec<Option<Hit>> {
         rays.par_iter()
@@ -285,6 +317,48 @@ mod tests {
         assert!(s
             .closest_hit(Vec3::new(1.0, 2.0, 5.0), Vec3::Z, 0.0, f32::INFINITY)
             .is_none());
+    }
+
+    #[test]
+    fn a_point_inside_a_building_or_under_the_ground_is_enclosed_and_one_beside_or_below_a_bridge_is_not(
+    ) {
+        use crate::shapes::{axis_box, ground};
+        let s = Scene::new(vec![
+            ground(
+                "ground",
+                Material::Concrete,
+                glam::Vec2::splat(-50.0),
+                glam::Vec2::splat(50.0),
+                0.0,
+                (4, 4),
+            )
+            .unwrap(),
+            axis_box(
+                "hall",
+                Material::Concrete,
+                Vec3::ZERO,
+                Vec3::new(10.0, 8.0, 6.0),
+            )
+            .unwrap(),
+            axis_box(
+                "bridge",
+                Material::Concrete,
+                Vec3::new(20.0, -5.0, 6.0),
+                Vec3::new(24.0, 5.0, 7.0),
+            )
+            .unwrap(),
+        ])
+        .unwrap();
+        let name = |p: Vec3| {
+            s.enclosing_object(p)
+                .map(|o| s.objects[o as usize].name.clone())
+        };
+        assert_eq!(name(Vec3::new(5.0, 4.0, 3.0)).as_deref(), Some("hall"));
+        assert_eq!(name(Vec3::new(-20.0, 0.0, -2.0)).as_deref(), Some("ground"));
+        assert_eq!(name(Vec3::new(22.0, 0.0, 6.5)).as_deref(), Some("bridge"));
+        assert_eq!(name(Vec3::new(-5.0, 4.0, 3.0)), None);
+        assert_eq!(name(Vec3::new(22.0, 0.0, 3.0)), None, "under the bridge");
+        assert_eq!(name(Vec3::new(5.0, 4.0, 30.0)), None, "above the hall");
     }
 
     #[test]

@@ -4,7 +4,7 @@
 use std::path::PathBuf;
 
 use glam::DVec3;
-use has_host::paths::{CandidateMode, Path, Tracer, TracerConfig};
+use has_host::paths::{CandidateMode, Path, PathError, Tracer, TracerConfig};
 use has_host::scenario::SceneSpec;
 
 /// Arguments of `has-sim paths`.
@@ -89,6 +89,31 @@ pub fn paths_json(paths: &[Path]) -> String {
     format!("{{\"paths\":[{}]}}", items.join(","))
 }
 
+/// A tracer result with its error prefixed by the flag it is about (the library names its
+/// own fields: `tx`, `frequency_hz`, `sbr_rays`).
+fn traced<T>(r: Result<T, PathError>) -> anyhow::Result<T> {
+    r.map_err(|e| {
+        let flag = match &e {
+            PathError::NonFinitePosition { what, .. } | PathError::FarPosition { what, .. } => {
+                if *what == "tx" {
+                    "--tx"
+                } else {
+                    "--rx"
+                }
+            }
+            PathError::MaterialFrequency { .. } => "--freq-ghz",
+            PathError::OutOfRange { what, .. } => match *what {
+                "sbr_rays" => "--rays",
+                "max_order" => "--max-order",
+                "frequency_hz" => "--freq-ghz",
+                _ => "--scene",
+            },
+            PathError::TooLarge { .. } => "--exhaustive",
+        };
+        anyhow::anyhow!("{flag}: {e}")
+    })
+}
+
 /// Runs `has-sim paths`.
 pub fn run(args: PathsArgs) -> anyhow::Result<()> {
     let tx = parse_point("--tx", &args.tx)?;
@@ -110,7 +135,7 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
     let scene = SceneSpec::load(&args.scene)
         .and_then(|s| s.build())
         .map_err(|e| anyhow::anyhow!("--scene: {e}"))?;
-    let tracer = Tracer::new(
+    let tracer = traced(Tracer::new(
         &scene,
         TracerConfig {
             frequency_hz: args.freq_ghz * 1e9,
@@ -122,8 +147,25 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
             },
             ..TracerConfig::default()
         },
-    )?;
-    let paths = tracer.paths(tx, rx)?;
+    ))?;
+    for (flag, p) in [("--tx", tx), ("--rx", rx)] {
+        if let Some(o) = scene.enclosing_object(p.as_vec3()) {
+            anyhow::bail!(
+                "{flag}: ({}, {}, {}) lies inside or under object '{}' (every ray from it meets \
+                 a surface from behind)",
+                p.x,
+                p.y,
+                p.z,
+                scene.objects[o as usize].name
+            );
+        }
+    }
+    let paths = traced(tracer.paths(tx, rx))?;
+    if (rx - tx).length() < has_host::wavelength_m(args.freq_ghz * 1e9) {
+        eprintln!(
+            "note: --tx and --rx are within a wavelength (monostatic): no line-of-sight path"
+        );
+    }
     if args.json {
         println!("{}", paths_json(&paths));
         return Ok(());

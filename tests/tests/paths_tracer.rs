@@ -513,6 +513,40 @@ fn bad_inputs_are_errors_naming_the_field() {
         .trace_many(&c, &[DVec3::ONE, DVec3::new(0.0, f64::INFINITY, 1.0)])
         .unwrap_err();
     assert!(e.to_string().starts_with("rx: position (0, inf"), "{e}");
+    let e = tracer
+        .paths(DVec3::new(0.0, 2e6, 1.0), DVec3::ONE)
+        .unwrap_err();
+    assert!(matches!(e, PathError::FarPosition { what: "tx", .. }));
+    assert!(
+        e.to_string().starts_with("tx: position (0, 2000000, 1)"),
+        "{e}"
+    );
+    let e = Tracer::new(
+        &scene,
+        TracerConfig {
+            candidates: CandidateMode::Sbr {
+                rays: has_host::paths::MAX_SBR_RAYS + 1,
+            },
+            ..TracerConfig::default()
+        },
+    )
+    .err()
+    .unwrap();
+    assert!(e.to_string().starts_with("sbr_rays: 1073741825"), "{e}");
+    // Concrete's ITU-R P.2040 fit is stated for 1–100 GHz.
+    for f in [0.5e9, 1e30] {
+        let e = Tracer::new(
+            &scene,
+            TracerConfig {
+                frequency_hz: f,
+                ..TracerConfig::default()
+            },
+        )
+        .err()
+        .unwrap();
+        assert!(matches!(e, PathError::MaterialFrequency { .. }), "{e}");
+        assert!(e.to_string().contains("material concrete"), "{e}");
+    }
     let e = frequency_response(&[], 0, 1e6).unwrap_err();
     assert!(e.to_string().contains("n_subcarriers"), "{e}");
     let e = frequency_response(&[], 8, -1.0).unwrap_err();

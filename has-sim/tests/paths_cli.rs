@@ -1,0 +1,86 @@
+//! `has-sim paths` from the command line on the bundled factory: an end inside the hall or
+//! under the yard, a position beyond the tracer's range, a frequency outside the materials'
+//! stated fit, a ray count or exhaustive search beyond the machine each fail before any tracing
+//! with one line naming the flag and the value; coincident ends (a monostatic radar) give the
+//! echoes and say why there is no line-of-sight path.
+
+use std::process::Command;
+
+fn paths(args: &[&str]) -> (bool, String, String) {
+    let scene = concat!(env!("CARGO_MANIFEST_DIR"), "/../fixtures/factory.toml");
+    let out = Command::new(env!("CARGO_BIN_EXE_has-sim"))
+        .args(["paths", "--scene", scene])
+        .args(args)
+        .output()
+        .expect("has-sim runs");
+    (
+        out.status.success(),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[test]
+fn impossible_ends_and_unbounded_work_are_named_errors_before_any_tracing() {
+    for (args, start) in [
+        (
+            &["--tx", "0,0,5", "--rx", "0,-30,10"][..],
+            "has-sim: error: --tx: (0, 0, 5) lies inside or under object 'factory'",
+        ),
+        (
+            &["--tx", "0,-30,10", "--rx", "0,-30,-5"][..],
+            "has-sim: error: --rx: (0, -30, -5) lies inside or under object 'yard'",
+        ),
+        (
+            &["--tx", "1e30,0,5", "--rx", "0,-30,10"][..],
+            "has-sim: error: --tx: tx: position (1000000000000000000000000000000, 0, 5) is beyond",
+        ),
+        (
+            &["--tx", "0,-30,10", "--rx", "0,-40,10", "--freq-ghz", "1e3"][..],
+            "has-sim: error: --freq-ghz: frequency_hz: 1000 GHz is outside",
+        ),
+        (
+            &[
+                "--tx",
+                "0,-30,10",
+                "--rx",
+                "0,-40,10",
+                "--rays",
+                "10000000000",
+            ][..],
+            "has-sim: error: --rays: sbr_rays: 10000000000 is out of range",
+        ),
+    ] {
+        let (ok, _, err) = paths(args);
+        assert!(!ok, "{args:?} succeeded");
+        assert!(err.starts_with(start), "{args:?}: {err}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+    }
+    // The exhaustive enumeration of order 8 over the factory's facets is ~10^10 sequences:
+    // refused where the machine says how much memory it has.
+    if has_host::memory::available_memory_bytes().is_some() {
+        let (ok, _, err) = paths(&[
+            "--tx",
+            "0,-30,10",
+            "--rx",
+            "0,-40,10",
+            "--exhaustive",
+            "--max-order",
+            "8",
+        ]);
+        assert!(!ok);
+        assert!(
+            err.starts_with("has-sim: error: --exhaustive: exhaustive candidates:"),
+            "{err}"
+        );
+    }
+}
+
+#[test]
+fn coincident_ends_give_the_echoes_and_say_there_is_no_line_of_sight() {
+    let (ok, out, err) = paths(&["--tx", "0,-30,10", "--rx", "0,-30,10"]);
+    assert!(ok, "{err}");
+    assert!(err.contains("monostatic"), "{err}");
+    assert!(out.contains("reflection(yard)"), "{out}");
+    assert!(!out.contains(" los"), "{out}");
+}
