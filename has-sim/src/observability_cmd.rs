@@ -29,7 +29,7 @@ pub struct ObservabilityArgs {
 pub fn run(args: ObservabilityArgs) -> Result<()> {
     let (sc, name) = load_scenario(args.scenario.as_deref())?;
     let world = imaging::build_world(&sc)?;
-    let planned = imaging::plan_pairs(&sc, &world)?;
+    let planned = imaging::plan_pairs(&sc)?;
     let every = imaging::every_pairing(&sc);
     let is_planned = |p: &PairPlan| {
         planned

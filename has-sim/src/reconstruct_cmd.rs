@@ -350,7 +350,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     let (sc, scenario_name) = load(&args)?;
     let run_dir = crate::run_dir::RunDir::start(&args.out, &OUTPUTS)?;
     let world = imaging::build_world(&sc)?;
-    let plans = imaging::plan_pairs(&sc, &world)?;
+    let plans = imaging::plan_pairs(&sc)?;
     let t_setup = t0.elapsed().as_secs_f64();
 
     let multi = MultiProgress::new();
@@ -396,6 +396,10 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
     ));
     let mut pairs_json = Vec::new();
     let mut total_bp = 0.0;
+    let region_centre = {
+        let (lo, hi) = sc.region();
+        (lo + hi) * 0.5
+    };
     let mut total_bp_s = 0.0;
     for (k, (p, img)) in result.plans.iter().zip(&result.images).enumerate() {
         total_bp += img.stats.backprojections;
@@ -414,7 +418,7 @@ pub fn run(args: ReconstructArgs) -> Result<()> {
             "base_station": sc.base_stations[p.bs].name,
             "aperture": sc.apertures[p.aperture].name,
             "aperture_positions": p.positions,
-            "coverage_m2": p.coverage_m2,
+            "resolution_cell_m": imaging::resolution_cell_m(&sc, p.bs, p.aperture, p.positions, region_centre),
             "fusion_factor": fused.pair_factor[k],
             "points": img.points.len(),
             "metrics_against_whole_truth": pm,
@@ -659,18 +663,18 @@ fn report_md(r: &serde_json::Value, cmp: &CloudComparison) -> Result<String> {
     writeln!(s, "\n## Pairs\n")?;
     writeln!(
         s,
-        "| pair | positions × elements | coverage m² | points | fine voxels | BP s | synth s |"
+        "| pair | positions × elements | resolution cell m | points | fine voxels | BP s | synth s |"
     )?;
     writeln!(s, "|---|---|---|---|---|---|---|")?;
     for p in r["imaging"]["pairs"].as_array().into_iter().flatten() {
         let st = &p["stats"];
         writeln!(
             s,
-            "| {} | {} × {} | {:.0} | {} | {} / {} | {:.1} | {:.1} |",
+            "| {} | {} × {} | {:.2} | {} | {} / {} | {:.1} | {:.1} |",
             p["name"].as_str().unwrap_or(""),
             st["frames"],
             st["elements"],
-            p["coverage_m2"].as_f64().unwrap_or(0.0),
+            p["resolution_cell_m"].as_f64().unwrap_or(f64::NAN),
             p["points"],
             st["fine_voxels"],
             st["region_voxels"],

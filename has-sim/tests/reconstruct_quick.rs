@@ -11,15 +11,16 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
     let pc = &report["imaging"]["point_cloud"];
     let sqrt_cd = pc["sqrt_chamfer_m"].as_f64().expect("sqrt_chamfer_m");
     let f15 = pc["fscore_1_5m"].as_f64().expect("fscore_1_5m");
-    // The quick preset (0.5 m voxels, 8×8 of each 32×32 panel, every 4th aperture position)
-    // measured √CD 1.105 m and F-score(1.5 m) 92.6 on the bundled scenario; runs are
-    // deterministic, so these bounds fail only if the pipeline gets worse.
-    assert!(sqrt_cd <= 1.2, "√CD {sqrt_cd} m");
-    assert!(f15 >= 91.0, "F-score(1.5 m) {f15}");
+    // The quick preset (0.5 m voxels, 8×8 of each 32×32 panel, every 4th aperture position) on
+    // the bundled site (an 80 m × 64 m region around the hall, not a box fitted to it) is held
+    // to issue 13's acceptance for quick runs on any site: √CD at most 1.3 m, F-score(1.5 m) at
+    // least 90 (measured 1.126 m / 90.8 at this commit).
+    assert!(sqrt_cd <= 1.3, "√CD {sqrt_cd} m");
+    assert!(f15 >= 90.0, "F-score(1.5 m) {f15}");
     assert!(pc["fscore_0_5m"].as_f64().is_some() && pc["fscore_1_0m"].as_f64().is_some());
     assert_eq!(report["imaging"]["pairs"].as_array().map(Vec::len), Some(6));
     // Every pairing of the 4 base stations and 6 apertures sees at least what the 6 imaged pairs
-    // see (both measured on the default truth: 66.2 % and 68.8 %).
+    // see (measured on the default truth: 63.2 % and 68.5 %).
     let gt = &report["imaging"]["ground_truth"];
     let seen = gt["observable_pct"].as_f64().expect("observable_pct");
     let any = gt["observable_any_pairing_pct"]
@@ -27,9 +28,10 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
         .expect("observable_any_pairing_pct");
     assert!(0.0 < seen && seen <= any && any <= 100.0, "{seen} {any}");
     // The mesh of the quick cloud (Poisson depth 7, trim 0.25 × median density, clipped to the
-    // imaging region, components under 2 % of the largest dropped) measured √CD 1.009 m and
-    // F-score(1.5 m) 93.7: better than the cloud it came from on both (paper §1.3's claim),
-    // which is asserted as such; the bounds guard against regressions.
+    // imaging region and to half the coarsest pair resolution cell of the fused points,
+    // components under 2 % of the largest dropped) measured √CD 1.051 m and F-score(1.5 m)
+    // 91.7: better than the cloud it came from on both (paper §1.3's claim, and issue 13's),
+    // which is asserted as such, and within the same quick bounds.
     let mesh = &report["mesh"];
     let mesh_cd = mesh["sqrt_chamfer_m"]
         .as_f64()
@@ -40,10 +42,8 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
         "mesh √CD {mesh_cd} m vs cloud {sqrt_cd} m"
     );
     assert!(mesh_f > f15, "mesh F-score(1.5 m) {mesh_f} vs cloud {f15}");
-    assert!(mesh_cd <= 1.1, "mesh √CD {mesh_cd} m");
-    // With the mesh clipped to half the coarsest pair resolution cell of the fused points
-    // (1.99 m here, issue 13) it measured 0.996 m / 93.3.
-    assert!(mesh_f >= 92.5, "mesh F-score(1.5 m) {mesh_f}");
+    assert!(mesh_cd <= 1.3, "mesh √CD {mesh_cd} m");
+    assert!(mesh_f >= 90.0, "mesh F-score(1.5 m) {mesh_f}");
     assert_eq!(mesh["manifold"].as_bool(), Some(true));
     // A finished run leaves no marker of an unfinished one (has-sim's run_dir).
     assert!(!out.join("RUNNING").exists());
@@ -55,7 +55,7 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
             "ground_truth.ply",
             "fused_top.svg",
             "fused_side.svg",
-            "pair_BS2-UAV.ply",
+            "pair_BS1-UAV.ply",
             "mesh.obj",
             "mesh.ply",
             "mesh_top.svg",

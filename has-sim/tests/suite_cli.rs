@@ -141,7 +141,6 @@ fn quick_suite_tables_every_site_with_finite_figures() {
 }
 
 #[test]
-#[ignore = "issue 13: bounds not yet met"]
 fn quick_suite_meets_issue_13_bounds() {
     let run = quick_suite();
     assert!(run.success, "has-sim suite --quick failed: {}", run.stderr);

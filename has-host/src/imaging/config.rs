@@ -243,10 +243,6 @@ pub struct ImagingSpec {
     /// pairs which see its place did not detect (0 keeps every point).
     #[serde(default = "default_cross_pair_denials")]
     pub cross_pair_denials: u8,
-    /// Without `[[pairs]]`: how base stations are chosen for the apertures
-    /// ([`crate::imaging::run::plan_pairs`]).
-    #[serde(default)]
-    pub pairing: Pairing,
     /// Seed of the scatterer sampling and the noise.
     #[serde(default = "default_one_u64")]
     pub seed: u64,
@@ -261,18 +257,6 @@ pub enum Detection {
     Clutter,
     /// Against the pair's image peak (relative thresholds).
     Peak,
-}
-
-/// How `plan_pairs` chooses a base station for each aperture (see [`ImagingSpec::pairing`]).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Pairing {
-    /// Each aperture on its own: the base station that sees the largest area with it.
-    #[default]
-    PerAperture,
-    /// All apertures together: the choice that sees the most echo-weighted area in union
-    /// ([`crate::imaging::run::joint_pairing`]).
-    Joint,
 }
 
 /// `[quick]`: fields of `[imaging]` replaced by the `--quick` preset (all optional).

@@ -97,9 +97,6 @@ pub struct PairPlan {
     pub aperture: usize,
     /// Transmit positions of the aperture (before `position_step`).
     pub positions: usize,
-    /// Area (m²) of scatterers inside the imaging region that see both the aperture centre and
-    /// the array centre: the pair's geometric coverage.
-    pub coverage_m2: f64,
 }
 
 /// The image of one pair, as points.

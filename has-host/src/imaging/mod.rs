@@ -8,11 +8,11 @@ pub mod driver;
 pub mod run;
 pub mod sensors;
 
-pub use config::{Detection, ImagingScenario, Pairing, ScenarioError};
+pub use config::{Detection, ImagingScenario, ScenarioError};
 pub use driver::{image_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions};
 pub use run::{
     build_world, check_memory, every_pairing, fuse, memory_estimate, observable_truth,
-    observing_pairs, observing_sensors, plan_pairs, run_imaging, share_pct, support_distance_m,
-    FusedCloud, RunError, RunResult, Terrain, World,
+    observing_pairs, observing_sensors, plan_pairs, resolution_cell_m, run_imaging, share_pct,
+    support_distance_m, FusedCloud, RunError, RunResult, Terrain, World,
 };
 pub use sensors::{nyquist_spacing_m, pair_resolution_m, PlanarArray, VirtualAperture};

@@ -1,24 +1,20 @@
 //! A whole imaging run: build the world from the scenario, plan the pairs, image each pair,
 //! fuse the clouds and score them against the ground truth.
 //!
-//! **Pairing.** Unless the scenario lists `[[pairs]]`, each aperture is paired with one base
-//! station (`imaging.pairing`): by default the one that, together with the aperture, sees the
-//! largest area of (non-ground) surface inside the imaging region; with `"joint"` the choice is
-//! made for all apertures together ([`joint_pairing`]): the pairs that together see the most
-//! surface, each element counted once at the best pair that sees it, weighted by its echo
-//! strength there (the bistatic Lambertian pattern `cos θ_tx·cos θ_rx`, [`echo_weight`]: a roof
-//! seen at grazing incidence returns next to nothing). Visibility is from the aperture centre
-//! and the array centre — the paper's "which BS pairs with which aperture follows from
-//! visibility". That visibility is the true scene's: an oracle the operator does not have (list
-//! `[[pairs]]` to keep the truth out of a run).
+//! **Pairing.** Unless the scenario lists `[[pairs]]`, each aperture is paired with the base
+//! station of the finest theoretical resolution cell at the region's centre
+//! ([`resolution_cell_m`]: range, virtual-aperture and vertical panel cross-range) among the
+//! panels that face it. Only what the operator knows goes in (sensor positions and the region):
+//! a small bistatic angle gives the finest range cell and the faces that echo towards both ends
+//! (a Lambertian face returns `cos θ_tx·cos θ_rx`), a nearer panel the finer vertical cell.
+//! Which buildings stand where is not asked, and the choice turns with the site.
 //! Aperture sampling defaults to the Nyquist spacing for the region
 //! ([`super::sensors::nyquist_spacing_m`]).
 //!
 //! **Fusion.** Every pair images on the same voxel lattice, so clouds merge voxel by voxel. A
-//! point of pair `k` carries weight `w = (|I|/peak_k) · c_k · q_k`, with `c_k` the pair's coverage
-//! relative to the best pair's (square root: area → length scale) and `q_k` the ratio of the
-//! finest theoretical resolution cell among pairs to this pair's (geometric mean of range,
-//! virtual-aperture and real-aperture cross-range resolutions at the region centre). A fused
+//! point of pair `k` carries weight `w = (|I|/peak_k) · q_k`, with `q_k` the ratio of the
+//! finest theoretical resolution cell among pairs to this pair's at the region's centre
+//! ([`resolution_cell_m`]). A fused
 //! voxel's weight is the sum over the pairs that kept it; voxels below
 //! `imaging.fusion_min_weight` × the largest weight are dropped. Then [`confirm`] drops the
 //! points that two or more pairs which see their place did not detect
@@ -31,13 +27,13 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use super::config::{ImagingScenario, Pairing};
+use super::config::ImagingScenario;
 use super::confirmation::{confirmed, PairSight};
 use super::driver::{image_pair, ImagingError, PairImage, PairPlan, RunOptions};
 use super::sensors::{nyquist_spacing_m, pair_resolution_m};
 use rayon::prelude::*;
 
-use crate::echo::{visible_for, ScattererSet};
+use crate::echo::ScattererSet;
 use crate::knn::PointIndex;
 use crate::scene::Scene;
 
@@ -140,14 +136,6 @@ pub fn memory_estimate(sc: &ImagingScenario) -> (usize, u64) {
     )
 }
 
-/// `MemAvailable` of `/proc/meminfo`, bytes (None where there is no such file).
-fn available_memory_bytes() -> Option<u64> {
-    let text = std::fs::read_to_string("/proc/meminfo").ok()?;
-    let line = text.lines().find(|l| l.starts_with("MemAvailable:"))?;
-    let kib: u64 = line.split_whitespace().nth(1)?.parse().ok()?;
-    Some(kib * 1024)
-}
-
 /// Refuses a region whose worst-case imaging memory ([`memory_estimate`]) exceeds the memory
 /// available, before anything is allocated.
 ///
@@ -155,14 +143,13 @@ fn available_memory_bytes() -> Option<u64> {
 /// [`RunError::TooLarge`] with the estimate.
 pub fn check_memory(sc: &ImagingScenario) -> Result<(), RunError> {
     let (voxels, need) = memory_estimate(sc);
-    if let Some(have) = available_memory_bytes() {
+    if let Some(have) = crate::memory::available_memory_bytes() {
         if need > have {
-            let gib = |b: u64| b as f64 / (1u64 << 30) as f64;
             return Err(RunError::TooLarge {
                 voxels,
                 voxel_m: sc.imaging.voxel_m,
-                need_gib: gib(need),
-                have_gib: gib(have),
+                need_gib: crate::memory::gib(need as f64),
+                have_gib: crate::memory::gib(have as f64),
             });
         }
     }
@@ -321,70 +308,28 @@ pub fn default_positions(sc: &ImagingScenario, ai: usize) -> usize {
 /// The pairs to image (see module docs), in aperture order.
 ///
 /// # Errors
-/// [`RunError::NoPairs`] if no pair sees any surface in the region.
-pub fn plan_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, RunError> {
-    let (lo, hi) = sc.region();
-    // What pair (bs, ai) sees of the in-region non-ground surface: the plain visible area (the
-    // pair's coverage, m²) and, for the joint pairing only, per visible scatterer its index and
-    // its echo-weighted area `A·cos θ_tx·cos θ_rx` ([`echo_weight`]).
-    let weigh = sc.imaging.pairing == Pairing::Joint;
-    let sight = |bs: usize, ai: usize| -> Result<(Vec<(u32, f32)>, f64), RunError> {
-        let a = sc.array(bs);
-        let tx = sc.aperture(ai, 2).centre();
-        let vis = visible_for(&world.scatterers, &world.scene, tx, a.centre)?;
-        let mut seen = Vec::new();
-        // From +0: `sum` of no terms is −0.0, which reports print as "-0".
-        let mut area = 0.0f64;
-        for &i in &vis {
-            let s = &world.scatterers.points[i as usize];
-            if world.is_ground[s.object as usize]
-                || !(s.pos.cmpge(lo).all() && s.pos.cmple(hi).all())
-            {
-                continue;
-            }
-            area += s.area_m2 as f64;
-            if weigh {
-                seen.push((i, s.area_m2 * echo_weight(s.normal, s.pos, tx, a.centre)));
-            }
-        }
-        Ok((seen, area))
-    };
+/// [`RunError::NoPairs`] if no base station faces the region.
+pub fn plan_pairs(sc: &ImagingScenario) -> Result<Vec<PairPlan>, RunError> {
     let mut plans = Vec::new();
-    let mk = |bs: usize, ai: usize, cov: f64| pair_plan(sc, bs, ai, cov);
     if sc.pairs.is_empty() {
-        let (nb, na) = (sc.base_stations.len(), sc.apertures.len());
-        let mut sights = Vec::with_capacity(na);
-        for ai in 0..na {
-            sights.push(
-                (0..nb)
-                    .map(|bs| sight(bs, ai))
-                    .collect::<Result<Vec<_>, _>>()?,
-            );
-        }
-        let choice = match sc.imaging.pairing {
-            Pairing::PerAperture => sights
-                .iter()
-                .map(|row| {
-                    let mut best = (None, 0.0f64);
-                    for (bs, (_, area)) in row.iter().enumerate() {
-                        if *area > best.1 {
-                            best = (Some(bs), *area);
-                        }
-                    }
-                    best.0
-                })
-                .collect(),
-            Pairing::Joint => {
-                let seen: Vec<Vec<&[(u32, f32)]>> = sights
-                    .iter()
-                    .map(|row| row.iter().map(|(v, _)| v.as_slice()).collect())
-                    .collect();
-                joint_pairing(&seen, world.scatterers.points.len())
+        let (lo, hi) = sc.region();
+        let centre = (lo + hi) * 0.5;
+        for ai in 0..sc.apertures.len() {
+            // The finest cell among the panels that face the region's centre; ties keep the
+            // lower index.
+            let mut best: Option<(usize, f32)> = None;
+            for bs in 0..sc.base_stations.len() {
+                let a = sc.array(bs);
+                if (centre - a.centre).dot(a.boresight()) <= 0.0 {
+                    continue;
+                }
+                let cell = resolution_cell_m(sc, bs, ai, default_positions(sc, ai), centre);
+                if best.is_none_or(|(_, c)| cell < c) {
+                    best = Some((bs, cell));
+                }
             }
-        };
-        for (ai, bs) in choice.into_iter().enumerate() {
-            if let Some(bs) = bs {
-                plans.push(mk(bs, ai, sights[ai][bs].1));
+            if let Some((bs, _)) = best {
+                plans.push(pair_plan(sc, bs, ai));
             }
         }
     } else {
@@ -399,7 +344,7 @@ pub fn plan_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, 
                 .iter()
                 .position(|a| a.name == p.aperture)
                 .unwrap_or(0);
-            plans.push(mk(bs, ai, sight(bs, ai)?.1));
+            plans.push(pair_plan(sc, bs, ai));
         }
     }
     if plans.is_empty() {
@@ -408,103 +353,44 @@ pub fn plan_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, 
     Ok(plans)
 }
 
-/// The bistatic Lambertian pattern of a surface element at `pos` with unit normal `normal`
-/// between `tx` and `rx`: `cos θ_tx · cos θ_rx` (0 when either lies behind the face), the factor
-/// by which its echo power falls from broadside (`σ = 4|Γ|²·cos θi·cos θs·A`, [`crate::echo`]).
-/// A face seen at grazing incidence is visible but returns next to nothing.
-pub fn echo_weight(normal: Vec3, pos: Vec3, tx: Vec3, rx: Vec3) -> f32 {
-    let c = |p: Vec3| normal.dot((p - pos).normalize_or_zero()).max(0.0);
-    c(tx) * c(rx)
-}
-
-/// One base station per aperture (`None`: no base station sees anything with it), chosen to
-/// maximise the echo-weighted area the pairs see *together*: `Σ_s max_k w_k(s)` over the
-/// scatterers, `w_k(s)` the echo-weighted area of scatterer `s` in chosen pair `k`
-/// (`seen[ai][bs]`, index and weight of each scatterer the pair sees; `n` scatterers in all). A
-/// surface that one pair already sees well adds nothing for a second, so an aperture goes to
-/// the base station that adds what the others miss, not to the one that repeats them (the
-/// suite's office: its UAV went to the base station behind the two vehicles that already see
-/// the north roof, and the south roof, which only the UAV with the south base station sees well,
-/// went unimaged). Start: each aperture's own best; then each aperture in turn takes the base
-/// station that raises the sum most given the others, until no choice changes (each step
-/// raises the sum strictly, so this ends). Deterministic: ties keep the earlier choice, then
-/// the lower index.
-pub fn joint_pairing(seen: &[Vec<&[(u32, f32)]>], n: usize) -> Vec<Option<usize>> {
-    let total = |v: &[(u32, f32)]| v.iter().map(|&(_, w)| w as f64).sum::<f64>();
-    let mut choice: Vec<Option<usize>> = seen
-        .iter()
-        .map(|row| {
-            let mut best = (None, 0.0f64);
-            for (bs, v) in row.iter().enumerate() {
-                let t = total(v);
-                if t > best.1 {
-                    best = (Some(bs), t);
-                }
-            }
-            best.0
-        })
-        .collect();
-    // The sum of the chosen pairs' weights, scatterer by scatterer, without aperture `skip`.
-    let best_without = |choice: &[Option<usize>], skip: usize| -> Vec<f32> {
-        let mut b = vec![0f32; n];
-        for (ai, c) in choice.iter().enumerate() {
-            if let (Some(bs), true) = (c, ai != skip) {
-                for &(i, w) in seen[ai][*bs] {
-                    let e = &mut b[i as usize];
-                    *e = e.max(w);
-                }
-            }
-        }
-        b
-    };
-    let gain = |base: &[f32], v: &[(u32, f32)]| -> f64 {
-        v.iter()
-            .map(|&(i, w)| (w - base[i as usize]).max(0.0) as f64)
-            .sum()
-    };
-    // Each full round either changes nothing (stop) or raises the sum; the cap only bounds
-    // rounding-level cycling.
-    for _ in 0..4 * seen.len().max(1) {
-        let mut changed = false;
-        for ai in 0..seen.len() {
-            let Some(current) = choice[ai] else { continue };
-            let base = best_without(&choice, ai);
-            let mut best = (current, gain(&base, seen[ai][current]));
-            for (bs, v) in seen[ai].iter().enumerate() {
-                let g = gain(&base, v);
-                if g > best.1 * (1.0 + 1e-9) + 1e-12 {
-                    best = (bs, g);
-                }
-            }
-            if best.0 != current {
-                choice[ai] = Some(best.0);
-                changed = true;
-            }
-        }
-        if !changed {
-            break;
-        }
-    }
-    choice
+/// The theoretical resolution cell of base station `bs` with aperture `ai` sampled at
+/// `positions` at `point`, metres: the geometric mean of the range resolution, the virtual
+/// aperture's (horizontal) cross-range and the panel's vertical cross-range
+/// ([`super::sensors::pair_resolution_m`]; the panel's horizontal cross-range is the coarser of
+/// the two horizontal ones and does not set the cell).
+pub fn resolution_cell_m(
+    sc: &ImagingScenario,
+    bs: usize,
+    ai: usize,
+    positions: usize,
+    point: Vec3,
+) -> f32 {
+    let (r, xv, _xh, xz) = pair_resolution_m(
+        point,
+        &sc.array(bs),
+        &sc.aperture(ai, positions),
+        sc.wavelength_m() as f32,
+        (sc.radar.bandwidth_mhz * 1e6) as f32,
+    );
+    (r * xv * xz).cbrt()
 }
 
 /// Every (base station, aperture) combination of the scenario, whether or not [`plan_pairs`]
-/// would image it (coverage left at 0): with [`observable_truth`], how much of the truth any
+/// would image it: with [`observable_truth`], how much of the truth any
 /// pairing of these sensors could observe — the ceiling of the pairing choice.
 pub fn every_pairing(sc: &ImagingScenario) -> Vec<PairPlan> {
     (0..sc.base_stations.len())
-        .flat_map(|bs| (0..sc.apertures.len()).map(move |ai| pair_plan(sc, bs, ai, 0.0)))
+        .flat_map(|bs| (0..sc.apertures.len()).map(move |ai| pair_plan(sc, bs, ai)))
         .collect()
 }
 
 /// The plan of base station `bs` with aperture `ai` (named `"BS-aperture"`, default sampling).
-fn pair_plan(sc: &ImagingScenario, bs: usize, ai: usize, coverage_m2: f64) -> PairPlan {
+fn pair_plan(sc: &ImagingScenario, bs: usize, ai: usize) -> PairPlan {
     PairPlan {
         name: format!("{}-{}", sc.base_stations[bs].name, sc.apertures[ai].name),
         bs,
         aperture: ai,
         positions: default_positions(sc, ai),
-        coverage_m2,
     }
 }
 
@@ -536,32 +422,12 @@ pub fn fuse(
 ) -> FusedCloud {
     let (lo, hi) = sc.region();
     let centre = (lo + hi) * 0.5;
-    let best_cov = plans
-        .iter()
-        .map(|p| p.coverage_m2)
-        .fold(0.0, f64::max)
-        .max(1e-9);
     let cells: Vec<f32> = plans
         .iter()
-        .map(|p| {
-            let a = sc.array(p.bs);
-            let ap = sc.aperture(p.aperture, p.positions);
-            let (r, xv, _xh, xz) = pair_resolution_m(
-                centre,
-                &a,
-                &ap,
-                sc.wavelength_m() as f32,
-                (sc.radar.bandwidth_mhz * 1e6) as f32,
-            );
-            (r * xv * xz).cbrt()
-        })
+        .map(|p| resolution_cell_m(sc, p.bs, p.aperture, p.positions, centre))
         .collect();
     let best_cell = cells.iter().copied().fold(f32::INFINITY, f32::min);
-    let factors: Vec<f32> = plans
-        .iter()
-        .zip(&cells)
-        .map(|(p, &c)| ((p.coverage_m2 / best_cov).sqrt() as f32) * (best_cell / c))
-        .collect();
+    let factors: Vec<f32> = cells.iter().map(|&c| best_cell / c).collect();
     let mut map: HashMap<[i64; 3], (Vec3, f32, f32, u8, u64)> = HashMap::new();
     for (k, img) in images.iter().enumerate() {
         for (p, &i) in img.points.iter().zip(&img.intensity) {
@@ -794,69 +660,52 @@ mod tests {
     }
 
     #[test]
-    fn an_aperture_goes_to_the_base_station_that_adds_what_the_others_miss() {
-        // Two apertures, two base stations, surface elements 0..4. Aperture 0 sees 0 and 1 well
-        // with either base station. Aperture 1 sees 0 and 1 best with base station 0 (weight
-        // 3), but 2 and 3 only with base station 1 (weight 2 in all): its own best repeats
-        // aperture 0.
-        let e01: Vec<(u32, f32)> = vec![(0, 1.0), (1, 1.0)];
-        let a1_bs0: Vec<(u32, f32)> = vec![(0, 1.5), (1, 1.5)];
-        let a1_bs1: Vec<(u32, f32)> = vec![(2, 1.0), (3, 1.0)];
-        let seen = vec![
-            vec![e01.as_slice(), e01.as_slice()],
-            vec![a1_bs0.as_slice(), a1_bs1.as_slice()],
-        ];
-        assert_eq!(joint_pairing(&seen, 4), vec![Some(0), Some(1)]);
-        // Alone, the aperture keeps its own best; an aperture that sees nothing gets none.
-        let none: Vec<(u32, f32)> = Vec::new();
-        let seen = vec![
-            vec![a1_bs0.as_slice(), a1_bs1.as_slice()],
-            vec![none.as_slice(), none.as_slice()],
-        ];
-        assert_eq!(joint_pairing(&seen, 4), vec![Some(0), None]);
-    }
-
-    #[test]
-    fn the_joint_pairing_gives_the_uav_to_the_base_station_that_sees_the_roof_nobody_else_does() {
-        // The suite's office: the UAV's own best base station (BS4, west) sees the north roof
-        // and the west side that BS4's two vehicle pairs already see; the gable's south roof
-        // faces away from it and meets the vehicles' legs at grazing incidence. Together, the
-        // UAV goes to BS1 (south), which sees that roof.
-        let text = include_str!("../../../fixtures/suite/office_pair.toml");
-        let mut sc = ImagingScenario::from_toml_str(text).expect("office");
-        sc.apply_quick();
-        let world = build_world(&sc).expect("world");
-        let uav = |sc: &ImagingScenario| {
-            let plans = plan_pairs(sc, &world).expect("pairs");
-            assert_eq!(plans.len(), sc.apertures.len());
-            let p = plans
+    fn the_pairing_turns_with_the_site_and_never_takes_a_panel_facing_away() {
+        let named = |sc: &ImagingScenario| -> Vec<(String, String)> {
+            plan_pairs(sc)
+                .expect("pairs")
                 .iter()
-                .find(|p| sc.apertures[p.aperture].name == "UAV");
-            sc.base_stations[p.expect("UAV pair").bs].name.clone()
+                .map(|p| {
+                    (
+                        sc.base_stations[p.bs].name.clone(),
+                        sc.apertures[p.aperture].name.clone(),
+                    )
+                })
+                .collect()
         };
-        assert_eq!(sc.imaging.pairing, Pairing::PerAperture);
-        assert_eq!(uav(&sc), "BS4");
-        let joint = text.replace("[imaging]\n", "[imaging]\npairing = \"joint\"\n");
-        let mut sc = ImagingScenario::from_toml_str(&joint).expect("office, joint");
-        sc.apply_quick();
-        assert_eq!(sc.imaging.pairing, Pairing::Joint);
-        assert_eq!(uav(&sc), "BS1");
-        let bad = text.replace("[imaging]\n", "[imaging]\npairing = \"best\"\n");
-        let e = ImagingScenario::from_toml_str(&bad).expect_err("unknown pairing");
-        assert!(e.to_string().contains("best"), "{e}");
-    }
-
-    #[test]
-    fn a_face_at_grazing_incidence_returns_nothing_and_broadside_everything() {
-        let (n, p) = (Vec3::Z, Vec3::ZERO);
-        let above = Vec3::new(0.0, 0.0, 10.0);
-        assert!((echo_weight(n, p, above, above) - 1.0).abs() < 1e-6);
-        let grazing = Vec3::new(10.0, 0.0, 0.0);
-        assert!(echo_weight(n, p, grazing, above).abs() < 1e-6);
-        let behind = Vec3::new(0.0, 0.0, -10.0);
-        assert_eq!(echo_weight(n, p, behind, above), 0.0);
-        let at_60 = Vec3::new(3f32.sqrt() * 5.0, 0.0, 5.0); // 60° from the normal
-        assert!((echo_weight(n, p, at_60, above) - 0.5).abs() < 1e-6);
+        let load = |text: &str| ImagingScenario::from_toml_str(text).expect("scenario");
+        let site_text = include_str!("../../../fixtures/suite/factory_site.toml");
+        let site = load(site_text);
+        let turned = load(include_str!("../../../fixtures/suite/factory_rotated.toml"));
+        let pairs = named(&site);
+        assert_eq!(pairs.len(), site.apertures.len());
+        // The whole site turned by 37° (sensors and region with it): the same pairs.
+        assert_eq!(named(&turned), pairs);
+        // Each aperture's base station has the finest cell among those facing the centre.
+        let (lo, hi) = site.region();
+        let centre = (lo + hi) * 0.5;
+        for p in plan_pairs(&site).expect("pairs") {
+            let cell = |bs| resolution_cell_m(&site, bs, p.aperture, p.positions, centre);
+            for bs in 0..site.base_stations.len() {
+                assert!(cell(p.bs) <= cell(bs), "{} vs BS {bs}", p.name);
+            }
+        }
+        // Turn the base station the UAV chose away from the site: it is never taken, and every
+        // aperture is still paired.
+        let (uav_bs, _) = pairs.iter().find(|(_, a)| a == "UAV").expect("UAV").clone();
+        let k = site
+            .base_stations
+            .iter()
+            .position(|b| b.name == uav_bs)
+            .unwrap();
+        let mut away = site.clone();
+        away.base_stations[k].boresight_deg += 180.0;
+        let pairs_away = named(&away);
+        assert_eq!(pairs_away.len(), site.apertures.len());
+        assert!(
+            pairs_away.iter().all(|(b, _)| *b != uav_bs),
+            "{pairs_away:?}"
+        );
     }
 
     #[test]
