@@ -61,6 +61,20 @@ pub enum GeometryError {
         /// Number of vertices.
         vertex_count: usize,
     },
+    /// A coordinate beyond ±[`crate::scene::MAX_COORD_M`].
+    #[error(
+        "{field}: point {index} at ({}, {}, {}) lies beyond ±{:e} m (f32 resolves no better than \
+         6 cm there)",
+        value.x, value.y, value.z, crate::scene::MAX_COORD_M
+    )]
+    TooFar {
+        /// Which input.
+        field: &'static str,
+        /// Index of the point.
+        index: usize,
+        /// The point.
+        value: Vec3,
+    },
     /// The input is degenerate for the operation (e.g. all points on one plane).
     #[error("{field}: degenerate input: {reason}")]
     Degenerate {
@@ -71,13 +85,22 @@ pub enum GeometryError {
     },
 }
 
-/// Checks that `points` is non-empty and every coordinate is finite.
+/// Checks that `points` is non-empty and every coordinate is finite and within
+/// ±[`crate::scene::MAX_COORD_M`].
 pub fn check_points(field: &'static str, points: &[Vec3]) -> Result<(), GeometryError> {
     if points.is_empty() {
         return Err(GeometryError::Empty { field });
     }
     if let Some((index, &value)) = points.iter().enumerate().find(|(_, p)| !p.is_finite()) {
         return Err(GeometryError::NonFinite {
+            field,
+            index,
+            value,
+        });
+    }
+    let far = |p: &Vec3| p.abs().max_element() as f64 > crate::scene::MAX_COORD_M;
+    if let Some((index, &value)) = points.iter().enumerate().find(|(_, p)| far(p)) {
+        return Err(GeometryError::TooFar {
             field,
             index,
             value,

@@ -65,10 +65,7 @@ pub const MAX_ORDER: usize = 8;
 /// run for hours.
 pub const MAX_SBR_RAYS: usize = 1 << 30;
 
-/// Largest coordinate magnitude (m) of a transmitter or receiver: the scene's ray tests are
-/// `f32`, whose spacing at 10⁶ m is 6 cm, two wavelengths at 10 GHz; farther out an obstruction
-/// test resolves nothing of a building.
-pub const MAX_COORD_M: f64 = 1e6;
+pub use crate::scene::MAX_COORD_M;
 
 /// Which antenna polarisation [`Path::a`] uses (same at both ends).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -693,18 +690,15 @@ impl<'a> Tracer<'a> {
                 });
             }
         }
-        for o in &scene.objects {
-            let (lo, hi) = o.material.valid_range_ghz();
-            let g = f / 1e9;
-            if !(lo..=hi).contains(&g) {
-                return Err(PathError::MaterialFrequency {
-                    freq_ghz: g,
-                    material: o.material.name(),
-                    object: o.name.clone(),
-                    lo_ghz: lo,
-                    hi_ghz: hi,
-                });
-            }
+        if let Some((i, (lo, hi))) = scene.material_outside(f) {
+            let o = &scene.objects[i];
+            return Err(PathError::MaterialFrequency {
+                freq_ghz: f / 1e9,
+                material: o.material.name(),
+                object: o.name.clone(),
+                lo_ghz: lo,
+                hi_ghz: hi,
+            });
         }
         for (what, v) in [
             ("facet_angle_tol_rad", config.facet_angle_tol_rad),

@@ -19,6 +19,11 @@ use rayon::prelude::*;
 
 use crate::material::Material;
 
+/// Largest coordinate magnitude (m) of a position the host accepts (a transmitter, a receiver,
+/// a point of a cloud): scenes and clouds are `f32`, whose spacing at 10⁶ m is 6 cm, two
+/// wavelengths at 10 GHz; farther out a ray test or a voxel resolves nothing of a building.
+pub const MAX_COORD_M: f64 = 1e6;
+
 /// Offset, in metres, by which secondary rays start off a surface and visibility rays stop
 /// short of their end point, so that a surface does not hide itself.
 pub const SURFACE_EPS_M: f32 = 1e-3;
@@ -220,6 +225,17 @@ impl Scene {
         let idx = &self.bvh.primitive_indices;
         self.bvh
             .ray_traverse_miss(ray, |r, id| tris[idx[id] as usize].intersect(r))
+    }
+
+    /// The first object whose material's ITU-R P.2040 fit is not stated at `freq_hz`: its
+    /// index and the stated range, GHz ([`Material::valid_range_ghz`]). Sionna RT refuses such
+    /// a frequency too.
+    pub fn material_outside(&self, freq_hz: f64) -> Option<(usize, (f64, f64))> {
+        let g = freq_hz / 1e9;
+        self.objects.iter().enumerate().find_map(|(i, o)| {
+            let (lo, hi) = o.material.valid_range_ghz();
+            (!(lo..=hi).contains(&g)).then_some((i, (lo, hi)))
+        })
     }
 
     /// The object that encloses `p`, if any: `p` is inside a closed object, or under an open

@@ -73,9 +73,27 @@ enum Command {
 fn main() {
     let cli = Cli::parse();
     if let Err(e) = run(cli) {
-        eprintln!("has-sim: error: {e:#}");
+        eprintln!("has-sim: error: {}", one_line(&e));
         std::process::exit(1);
     }
+}
+
+/// An error and its causes on one line, joined by ": ", leaving out a cause whose text the line
+/// already holds (a library error that prints its source and also returns it from `source()`
+/// would otherwise repeat it).
+fn one_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let c = cause.to_string();
+        if line.contains(&c) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&c);
+    }
+    line
 }
 
 fn run(cli: Cli) -> anyhow::Result<()> {
@@ -114,4 +132,40 @@ fn materials(freq_ghz: f64) -> anyhow::Result<()> {
         );
     }
     Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::one_line;
+
+    #[derive(Debug)]
+    struct Inner;
+    impl std::fmt::Display for Inner {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            f.write_str("inner: bad value 3")
+        }
+    }
+    impl std::error::Error for Inner {}
+
+    /// Prints its source and returns it from `source()`, as thiserror's `{0}` with `#[from]`.
+    #[derive(Debug)]
+    struct Outer(Inner);
+    impl std::fmt::Display for Outer {
+        fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+            write!(f, "scene: {}", self.0)
+        }
+    }
+    impl std::error::Error for Outer {
+        fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+            Some(&self.0)
+        }
+    }
+
+    #[test]
+    fn a_cause_the_message_already_holds_is_not_repeated() {
+        let e = anyhow::Error::from(Outer(Inner)).context("--scene: f.toml");
+        assert_eq!(one_line(&e), "--scene: f.toml: scene: inner: bad value 3");
+        let plain = anyhow::anyhow!("one").context("two");
+        assert_eq!(one_line(&plain), "two: one");
+    }
 }

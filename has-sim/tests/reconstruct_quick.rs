@@ -102,6 +102,47 @@ fn malformed_scenario_fails_with_one_line_naming_the_field() {
     );
     assert!(!ok);
     assert!(err.contains("base_stations[0].position"), "{err}");
+
+    // Accepted-but-wrong input of earlier versions: each a named one-line error now.
+    for (from, to, field) in [
+        (
+            "name = \"BS2\"",
+            "name = \"BS1\"",
+            "base_stations[1].name: \"BS1\"",
+        ),
+        (
+            "end = [-7.0, -27.0, 1.5]",
+            "end = [-10.0, -27.0, 1.5]",
+            "apertures[0].end: [-10.0, -27.0, 1.5] (at least a wavelength",
+        ),
+        // A mast inside the hall, an aperture under the yard.
+        (
+            "position = [-45.0, -40.0, 20.0]",
+            "position = [0.0, 0.0, 4.0]",
+            "base_stations[0].position: [0.0, 0.0, 4.0] lies inside or under object 'factory'",
+        ),
+        (
+            "start = [-10.0, -27.0, 1.5]",
+            "start = [-10.0, -27.0, -1.5]",
+            "apertures[0].start: [-10.0, -27.0, -1.5] lies inside or under object 'yard'",
+        ),
+        (
+            "fc_ghz = 10.0",
+            "fc_ghz = 1e30",
+            "radar.fc_ghz: 1000000000000000000000000000000 GHz is outside 1–100 GHz",
+        ),
+        (
+            "scatterer_density_per_m2 = 16.0",
+            "scatterer_density_per_m2 = 1e12",
+            "imaging.scatterer_density_per_m2: up to",
+        ),
+    ] {
+        assert!(factory.contains(from), "{from}");
+        let (ok, err) = common::run_on_text("reconstruct", &dir, &factory.replacen(from, to, 1));
+        assert!(!ok, "{to}");
+        assert_eq!(err.trim_end().lines().count(), 1, "{err}");
+        assert!(err.contains(field), "{to}: {err}");
+    }
     let _ = std::fs::remove_dir_all(&dir);
 }
 

@@ -152,3 +152,29 @@ fn the_simulated_ground_is_the_same_when_the_site_is_turned() {
     // the edge of the test grid (76 m).
     assert!(inside > total / 3 && inside < total, "{inside} of {total}");
 }
+
+#[test]
+fn a_missing_mesh_names_the_xml_file_its_line_and_the_shape() {
+    let dir = std::env::temp_dir().join(format!("has-mitsuba-missing-{}", std::process::id()));
+    std::fs::create_dir_all(dir.join("meshes")).unwrap();
+    for f in ["floor.ply", "wall.ply"] {
+        std::fs::copy(
+            fixtures().join("sionna_small/meshes").join(f),
+            dir.join("meshes").join(f),
+        )
+        .unwrap();
+    }
+    let xml = std::fs::read_to_string(fixtures().join("sionna_small/scene.xml")).unwrap();
+    std::fs::write(
+        dir.join("scene.xml"),
+        xml.replace("meshes/wall.ply", "meshes/nothere.ply"),
+    )
+    .unwrap();
+    let e = read_mitsuba(&dir.join("scene.xml"))
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("scene.xml:"), "{e}");
+    assert!(e.contains("shape 'mesh-wall'"), "{e}");
+    assert!(e.contains("nothere.ply"), "{e}");
+    let _ = std::fs::remove_dir_all(&dir);
+}

@@ -226,6 +226,20 @@ pub enum EchoError {
         /// Length given.
         got: usize,
     },
+    /// Sampling would need more memory than the machine has.
+    #[error(
+        "{field}: up to {count:.3e} scatterers need {need_gib:.1} GiB, {have_gib:.1} GiB available"
+    )]
+    TooLarge {
+        /// The density's field.
+        field: &'static str,
+        /// Scatterers the density asks for on the whole scene.
+        count: f64,
+        /// Their memory, GiB.
+        need_gib: f64,
+        /// Memory available, GiB.
+        have_gib: f64,
+    },
     /// A visibility index that does not name a scatterer of the set.
     #[error("visible[{position}] = {index} is out of range for {len} scatterers")]
     BadIndex {

@@ -62,7 +62,8 @@ impl ScattererSet {
     /// Samples every triangle of `scene` at `density_per_m2` (see module docs).
     ///
     /// # Errors
-    /// `InvalidParameter` for a density that is not finite and positive.
+    /// `InvalidParameter` for a density that is not finite and positive; `TooLarge` when the
+    /// scatterers it asks for on the whole scene would not fit in the memory available.
     pub fn sample(scene: &Scene, density_per_m2: f64, seed: u64) -> Result<Self, EchoError> {
         Self::sample_where(scene, density_per_m2, seed, |_, _| true)
     }
@@ -80,6 +81,28 @@ impl ScattererSet {
     ) -> Result<Self, EchoError> {
         if !(density_per_m2.is_finite() && density_per_m2 > 0.0) {
             return Err(EchoError::invalid("density_per_m2", density_per_m2));
+        }
+        // Every triangle draws about area × density points before `keep` (work), and at worst
+        // keeps them all (memory): refuse what would not fit before drawing any.
+        let area: f64 = scene
+            .triangles
+            .iter()
+            .map(|t| {
+                let (v0, v1, v2) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
+                0.5 * (v1 - v0).cross(v2 - v0).length() as f64
+            })
+            .sum();
+        let count = area * density_per_m2 + scene.triangles.len() as f64;
+        let need = count * std::mem::size_of::<Scatterer>() as f64;
+        if let Some(have) = crate::memory::available_memory_bytes() {
+            if need > have as f64 {
+                return Err(EchoError::TooLarge {
+                    field: "density_per_m2",
+                    count,
+                    need_gib: crate::memory::gib(need),
+                    have_gib: crate::memory::gib(have as f64),
+                });
+            }
         }
         let a1 = 1.0 / PLASTIC;
         let a2 = 1.0 / (PLASTIC * PLASTIC);

@@ -551,6 +551,13 @@ impl ImagingScenario {
             }
             check_positive(&format!("base_stations[{i}].width_m"), b.width_m as f64)?;
             check_positive(&format!("base_stations[{i}].height_m"), b.height_m as f64)?;
+            if self.base_stations[..i].iter().any(|o| o.name == b.name) {
+                return Err(invalid(
+                    format!("base_stations[{i}].name"),
+                    &b.name,
+                    "unique: an earlier base station has it",
+                ));
+            }
         }
         if self.apertures.is_empty() {
             return Err(invalid("apertures", "[]", "at least one aperture"));
@@ -558,6 +565,22 @@ impl ImagingScenario {
         for (i, a) in self.apertures.iter().enumerate() {
             check_pos3(format!("apertures[{i}].start"), a.start)?;
             check_pos3(format!("apertures[{i}].end"), a.end)?;
+            let length = (Vec3::from(a.end) - Vec3::from(a.start)).length() as f64;
+            if length < self.wavelength_m() {
+                return Err(invalid(
+                    format!("apertures[{i}].end"),
+                    a.end,
+                    "at least a wavelength from start: a virtual aperture of no length resolves \
+                     nothing across range",
+                ));
+            }
+            if self.apertures[..i].iter().any(|o| o.name == a.name) {
+                return Err(invalid(
+                    format!("apertures[{i}].name"),
+                    &a.name,
+                    "unique: an earlier aperture has it",
+                ));
+            }
             if let Some(n) = a.positions {
                 if n < 2 {
                     return Err(invalid(format!("apertures[{i}].positions"), n, "≥ 2"));

@@ -88,22 +88,59 @@ pub enum RunError {
         /// The name.
         name: String,
     },
+    /// The carrier lies outside a scene material's stated ITU-R P.2040 range.
+    #[error(
+        "radar.fc_ghz: {fc_ghz} GHz is outside {lo_ghz}–{hi_ghz} GHz, where ITU-R P.2040 states \
+         the fit of material {material} (object {object})"
+    )]
+    MaterialFrequency {
+        /// The carrier, GHz.
+        fc_ghz: f64,
+        /// The material's name.
+        material: &'static str,
+        /// The first object made of it.
+        object: String,
+        /// The stated range, GHz.
+        lo_ghz: f64,
+        /// The stated range, GHz.
+        hi_ghz: f64,
+    },
+    /// A sensor lies inside a building or under the ground ([`Scene::enclosing_object`]).
+    #[error("{field}: {position:?} lies inside or under object '{object}'")]
+    Enclosed {
+        /// The field, e.g. `base_stations[0].position`.
+        field: String,
+        /// The position, m.
+        position: [f32; 3],
+        /// The enclosing object.
+        object: String,
+    },
     /// No pair sees anything.
     #[error("no base station–aperture pair sees the imaging region")]
     NoPairs,
-    /// The imaging region would need more memory than the machine has.
+    /// One pair's imaging would need more memory than the machine has.
     #[error(
-        "imaging region: {voxels} fine voxels of {voxel_m} m need up to {need_gib:.1} GiB, more than the {have_gib:.1} GiB available; shrink imaging.region_min/region_max or coarsen imaging.voxel_m"
+        "imaging: one pair needs up to {need_gib:.1} GiB, more than the {have_gib:.1} GiB \
+         available ({voxels} fine voxels of {voxel_m} m: {voxels_gib:.1} GiB; the frames held \
+         for pair {pair}: {frames_gib:.1} GiB); {advice}"
     )]
     TooLarge {
         /// Fine voxels of the region's bounding box.
         voxels: usize,
         /// Fine voxel edge, metres.
         voxel_m: f32,
+        /// The voxels' part of the estimate, GiB.
+        voxels_gib: f64,
+        /// The pair holding the most frames.
+        pair: String,
+        /// Its frames' part of the estimate, GiB.
+        frames_gib: f64,
         /// The estimate, GiB.
         need_gib: f64,
         /// Memory available, GiB.
         have_gib: f64,
+        /// What to change: the fields of the larger part.
+        advice: &'static str,
     },
 }
 
@@ -120,36 +157,61 @@ pub const IMAGING_BYTES_PER_VOXEL: usize = 3 * 8 + 16 + 8 + 4 + 8 + 5 * 4 + 48 +
 /// [`IMAGING_BYTES_PER_VOXEL`] per voxel plus the frames the imaging holds for the largest
 /// pairing ([`super::driver::held_frames_bytes`]).
 pub fn memory_estimate(sc: &ImagingScenario) -> (usize, u64) {
+    let m = memory_parts(sc);
+    (m.voxels, m.voxel_bytes.saturating_add(m.frame_bytes))
+}
+
+/// The two parts of [`memory_estimate`].
+struct MemoryParts {
+    voxels: usize,
+    voxel_bytes: u64,
+    /// The largest pairing's held frames, and that pairing.
+    frame_bytes: u64,
+    pair: String,
+}
+
+fn memory_parts(sc: &ImagingScenario) -> MemoryParts {
     let (lo, hi) = sc.region();
     let d = ((hi - lo) / sc.imaging.voxel_m).floor() + Vec3::ONE;
     let voxels = (d.x as f64 * d.y as f64 * d.z as f64).min(usize::MAX as f64) as usize;
-    let frames = every_pairing(sc)
-        .iter()
-        .map(|p| super::driver::held_frames_bytes(sc, p))
-        .max()
-        .unwrap_or(0);
-    (
+    let (frame_bytes, pair) = every_pairing(sc)
+        .into_iter()
+        .map(|p| (super::driver::held_frames_bytes(sc, &p), p.name))
+        .max_by_key(|(b, _)| *b)
+        .unwrap_or_default();
+    MemoryParts {
         voxels,
-        (voxels as u64)
-            .saturating_mul(IMAGING_BYTES_PER_VOXEL as u64)
-            .saturating_add(frames),
-    )
+        voxel_bytes: (voxels as u64).saturating_mul(IMAGING_BYTES_PER_VOXEL as u64),
+        frame_bytes,
+        pair,
+    }
 }
 
-/// Refuses a region whose worst-case imaging memory ([`memory_estimate`]) exceeds the memory
+/// Refuses a run whose worst-case imaging memory ([`memory_estimate`]) exceeds the memory
 /// available, before anything is allocated.
 ///
 /// # Errors
-/// [`RunError::TooLarge`] with the estimate.
+/// [`RunError::TooLarge`] with the estimate, its two parts and the fields of the larger one.
 pub fn check_memory(sc: &ImagingScenario) -> Result<(), RunError> {
-    let (voxels, need) = memory_estimate(sc);
+    let m = memory_parts(sc);
+    let need = m.voxel_bytes.saturating_add(m.frame_bytes);
     if let Some(have) = crate::memory::available_memory_bytes() {
         if need > have {
+            let gib = |b: u64| crate::memory::gib(b as f64);
             return Err(RunError::TooLarge {
-                voxels,
+                voxels: m.voxels,
                 voxel_m: sc.imaging.voxel_m,
-                need_gib: crate::memory::gib(need as f64),
-                have_gib: crate::memory::gib(have as f64),
+                voxels_gib: gib(m.voxel_bytes),
+                pair: m.pair,
+                frames_gib: gib(m.frame_bytes),
+                need_gib: gib(need),
+                have_gib: gib(have),
+                advice: if m.voxel_bytes >= m.frame_bytes {
+                    "shrink imaging.region_min/region_max or coarsen imaging.voxel_m"
+                } else {
+                    "fewer base_stations[].rows/cols or apertures[].positions, or a larger \
+                     imaging.element_step/position_step"
+                },
             });
         }
     }
@@ -181,25 +243,75 @@ pub fn build_world(sc: &ImagingScenario) -> Result<World, RunError> {
             });
         }
     }
+    let fc_hz = sc.radar.fc_ghz * 1e9;
+    if let Some((i, (lo, hi))) = scene.material_outside(fc_hz) {
+        let o = &scene.objects[i];
+        return Err(RunError::MaterialFrequency {
+            fc_ghz: sc.radar.fc_ghz,
+            material: o.material.name(),
+            object: o.name.clone(),
+            lo_ghz: lo,
+            hi_ghz: hi,
+        });
+    }
+    let sensors = sc
+        .base_stations
+        .iter()
+        .enumerate()
+        .map(|(i, b)| (format!("base_stations[{i}].position"), b.position))
+        .chain(sc.apertures.iter().enumerate().flat_map(|(i, a)| {
+            [
+                (format!("apertures[{i}].start"), a.start),
+                (format!("apertures[{i}].end"), a.end),
+            ]
+        }));
+    for (field, p) in sensors {
+        if let Some(o) = scene.enclosing_object(Vec3::from(p)) {
+            return Err(RunError::Enclosed {
+                field,
+                position: p,
+                object: scene.objects[o as usize].name.clone(),
+            });
+        }
+    }
     let is_ground: Vec<bool> = scene
         .objects
         .iter()
         .map(|o| sc.imaging.ground_objects.contains(&o.name))
         .collect();
+    // A density the memory cannot hold is named by its scenario field.
+    let named = |field: &'static str| {
+        move |e: crate::echo::EchoError| match e {
+            crate::echo::EchoError::TooLarge {
+                count,
+                need_gib,
+                have_gib,
+                ..
+            } => crate::echo::EchoError::TooLarge {
+                field,
+                count,
+                need_gib,
+                have_gib,
+            },
+            e => e,
+        }
+    };
     let ig = is_ground.clone();
     let mut set = ScattererSet::sample_where(
         &scene,
         sc.imaging.scatterer_density_per_m2,
         sc.imaging.seed,
         |o, _| !ig[o as usize],
-    )?;
+    )
+    .map_err(named("imaging.scatterer_density_per_m2"))?;
     let ig = is_ground.clone();
     let ground = ScattererSet::sample_where(
         &scene,
         sc.imaging.ground_density_per_m2,
         sc.imaging.seed.wrapping_add(1),
         |o, p| ig[o as usize] && sc.scatters_as_ground(p),
-    )?;
+    )
+    .map_err(named("imaging.ground_density_per_m2"))?;
     set.points.extend(ground.points);
     let terrain = terrain_model(sc, &scene, &is_ground)?;
     let truth_triangles: Vec<[Vec3; 3]> = scene
@@ -727,6 +839,16 @@ mod tests {
             Err(e) => panic!("unexpected error {e}"),
             Ok(_) => panic!("a 10 km region at 0.25 m was accepted"),
         }
+        // Panels of 10⁵ × 10⁵ elements: the frames, not the region, are what does not fit,
+        // and the message says which fields to change.
+        let mut sc = factory();
+        for b in &mut sc.base_stations {
+            b.rows = 100_000;
+            b.cols = 100_000;
+        }
+        let msg = build_world(&sc).err().expect("refused").to_string();
+        assert!(msg.contains("base_stations[].rows/cols"), "{msg}");
+        assert!(!msg.contains("imaging.voxel_m"), "{msg}");
     }
 
     #[test]

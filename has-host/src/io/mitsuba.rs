@@ -258,14 +258,21 @@ pub fn parse_mitsuba(text: &str, path: &Path) -> Result<Vec<Object>, MeshIoError
                     )
                 })?;
                 let file = dir.join(f);
-                let tris: Vec<[Vec3; 3]> = if ty == "ply" {
-                    read_ply(&file)?.triangles()
-                } else {
-                    read_obj(&file, Some(material))?
-                        .into_iter()
-                        .flat_map(|o| o.triangles)
-                        .collect()
+                let read = || -> Result<Vec<[Vec3; 3]>, MeshIoError> {
+                    Ok(if ty == "ply" {
+                        read_ply(&file)?.triangles()
+                    } else {
+                        read_obj(&file, Some(material))?
+                            .into_iter()
+                            .flat_map(|o| o.triangles)
+                            .collect()
+                    })
                 };
+                // The XML file and the shape that names the mesh, with the mesh's own error.
+                let tris = read().map_err(|e| {
+                    let id = shape.attribute("id").unwrap_or("(no id)");
+                    cx.err(shape, format!("shape '{id}': {e}"))
+                })?;
                 (super::file_stem(&file), tris)
             }
             "rectangle" => {
