@@ -307,7 +307,14 @@ fn extreme_inputs_never_panic_and_every_ok_output_is_finite() {
     .unwrap();
     // Ok outcomes per entry point: the draws must reach the data paths, not only the checks.
     let (mut bp_ok, mut template_ok, mut cfar_ok) = (0, 0, 0);
-    for _ in 0..3000 {
+    // At least seven entry-point calls per round (a back-projector, a template set, a CFAR, a
+    // range compression, two rounding shifts, a wavelength). CI runs 3000 rounds; a longer run:
+    // `HAS_DSP_EXTREME_ROUNDS=1500000 cargo test --release -p has-dsp extreme_inputs`.
+    let rounds: usize = std::env::var("HAS_DSP_EXTREME_ROUNDS")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or(3000);
+    for _ in 0..rounds {
         bp_ok += bp_case(&mut g);
         template_ok += template_case(&mut g);
         cfar_ok += cfar_case(&mut g);
@@ -332,6 +339,8 @@ fn extreme_inputs_never_panic_and_every_ok_output_is_finite() {
             assert!(l.is_finite() && l > 0.0, "{f} Hz → {l}");
         }
     }
-    std::eprintln!("Ok pushes {bp_ok}, template subtractions {template_ok}, CFAR lines {cfar_ok}");
+    std::eprintln!(
+        "{rounds} rounds: Ok pushes {bp_ok}, template subtractions {template_ok}, CFAR lines {cfar_ok}"
+    );
     assert!(bp_ok >= 50 && template_ok >= 100 && cfar_ok >= 100);
 }
