@@ -821,6 +821,37 @@ mod tests {
     }
 
     #[test]
+    fn a_pair_images_to_the_same_bits_on_one_thread_and_on_two() {
+        let mut sc = factory();
+        sc.apply_quick();
+        let world = build_world(&sc).expect("world");
+        let plan = plan_pairs(&sc)
+            .expect("pairs")
+            .into_iter()
+            .find(|p| sc.apertures[p.aperture].name == "UAV")
+            .expect("UAV pair");
+        let image = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .expect("pool")
+                .install(|| image_pair(&sc, &world, &plan, RunOptions::default(), &|_, _| {}))
+                .expect("image")
+        };
+        let (one, two) = (image(1), image(2));
+        assert!(!one.points.is_empty());
+        let bits = |im: &PairImage| -> Vec<u32> {
+            im.points
+                .iter()
+                .flat_map(|p| p.to_array())
+                .chain(im.intensity.iter().copied())
+                .map(f32::to_bits)
+                .collect()
+        };
+        assert_eq!(bits(&one), bits(&two));
+    }
+
+    #[test]
     fn a_region_beyond_the_machines_memory_is_refused_before_anything_is_built() {
         let mut sc = factory();
         sc.imaging.region_min = [-5000.0, -5000.0, 0.0];
