@@ -14,3 +14,10 @@ pub fn available_memory_bytes() -> Option<u64> {
 pub fn gib(bytes: f64) -> f64 {
     bytes / (1u64 << 30) as f64
 }
+
+/// `Some((need_gib, have_gib))` when `need_bytes` exceeds the memory available; `None` when it
+/// fits or the machine does not say.
+pub fn shortfall(need_bytes: f64) -> Option<(f64, f64)> {
+    let have = available_memory_bytes()? as f64;
+    (need_bytes > have).then(|| (gib(need_bytes), gib(have)))
+}

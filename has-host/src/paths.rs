@@ -722,15 +722,13 @@ impl<'a> Tracer<'a> {
         if config.candidates == CandidateMode::Exhaustive {
             let count = exhaustive_sequences(facets.facets.len(), config.max_order);
             let need = count * EXHAUSTIVE_BYTES_PER_SEQUENCE as f64;
-            if let Some(have) = crate::memory::available_memory_bytes() {
-                if need > have as f64 {
-                    return Err(PathError::TooLarge {
-                        what: "exhaustive candidates",
-                        count,
-                        need_gib: crate::memory::gib(need),
-                        have_gib: crate::memory::gib(have as f64),
-                    });
-                }
+            if let Some((need_gib, have_gib)) = crate::memory::shortfall(need) {
+                return Err(PathError::TooLarge {
+                    what: "exhaustive candidates",
+                    count,
+                    need_gib,
+                    have_gib,
+                });
             }
         }
         let eta = scene

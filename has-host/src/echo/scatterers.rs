@@ -94,15 +94,13 @@ impl ScattererSet {
             .sum();
         let count = area * density_per_m2 + scene.triangles.len() as f64;
         let need = count * std::mem::size_of::<Scatterer>() as f64;
-        if let Some(have) = crate::memory::available_memory_bytes() {
-            if need > have as f64 {
-                return Err(EchoError::TooLarge {
-                    field: "density_per_m2",
-                    count,
-                    need_gib: crate::memory::gib(need),
-                    have_gib: crate::memory::gib(have as f64),
-                });
-            }
+        if let Some((need_gib, have_gib)) = crate::memory::shortfall(need) {
+            return Err(EchoError::TooLarge {
+                field: "density_per_m2",
+                count,
+                need_gib,
+                have_gib,
+            });
         }
         let a1 = 1.0 / PLASTIC;
         let a2 = 1.0 / (PLASTIC * PLASTIC);

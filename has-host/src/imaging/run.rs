@@ -195,25 +195,23 @@ fn memory_parts(sc: &ImagingScenario) -> MemoryParts {
 pub fn check_memory(sc: &ImagingScenario) -> Result<(), RunError> {
     let m = memory_parts(sc);
     let need = m.voxel_bytes.saturating_add(m.frame_bytes);
-    if let Some(have) = crate::memory::available_memory_bytes() {
-        if need > have {
-            let gib = |b: u64| crate::memory::gib(b as f64);
-            return Err(RunError::TooLarge {
-                voxels: m.voxels,
-                voxel_m: sc.imaging.voxel_m,
-                voxels_gib: gib(m.voxel_bytes),
-                pair: m.pair,
-                frames_gib: gib(m.frame_bytes),
-                need_gib: gib(need),
-                have_gib: gib(have),
-                advice: if m.voxel_bytes >= m.frame_bytes {
-                    "shrink imaging.region_min/region_max or coarsen imaging.voxel_m"
-                } else {
-                    "fewer base_stations[].rows/cols or apertures[].positions, or a larger \
-                     imaging.element_step/position_step"
-                },
-            });
-        }
+    if let Some((need_gib, have_gib)) = crate::memory::shortfall(need as f64) {
+        let gib = |b: u64| crate::memory::gib(b as f64);
+        return Err(RunError::TooLarge {
+            voxels: m.voxels,
+            voxel_m: sc.imaging.voxel_m,
+            voxels_gib: gib(m.voxel_bytes),
+            pair: m.pair,
+            frames_gib: gib(m.frame_bytes),
+            need_gib,
+            have_gib,
+            advice: if m.voxel_bytes >= m.frame_bytes {
+                "shrink imaging.region_min/region_max or coarsen imaging.voxel_m"
+            } else {
+                "fewer base_stations[].rows/cols or apertures[].positions, or a larger \
+                 imaging.element_step/position_step"
+            },
+        });
     }
     Ok(())
 }
