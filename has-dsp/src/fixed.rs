@@ -263,18 +263,6 @@ pub fn cq15_mul(a: CQ15, b: CQ15) -> CQ15 {
     )
 }
 
-/// Saturating complex Q15 sum.
-#[inline]
-pub fn cq15_add(a: CQ15, b: CQ15) -> CQ15 {
-    Complex::new(a.re + b.re, a.im + b.im)
-}
-
-/// Saturating complex Q15 difference.
-#[inline]
-pub fn cq15_sub(a: CQ15, b: CQ15) -> CQ15 {
-    Complex::new(a.re - b.re, a.im - b.im)
-}
-
 /// Saturates an `i64` to the `i32` range.
 #[inline]
 pub fn sat_i32(x: i64) -> i32 {
