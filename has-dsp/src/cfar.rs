@@ -274,16 +274,8 @@ mod tests {
     /// Exponential(1) powers — |z|² of unit complex Gaussian noise — from a 64-bit LCG (Knuth's
     /// MMIX constants, top 53 bits as a uniform in (0, 1]): `x = −ln U`.
     fn exp_noise(seed: u64, n: usize) -> std::vec::Vec<f32> {
-        let mut s = seed;
-        (0..n)
-            .map(|_| {
-                s = s
-                    .wrapping_mul(6364136223846793005)
-                    .wrapping_add(1442695040888963407);
-                let u = ((s >> 11) as f64 + 1.0) / (1u64 << 53) as f64;
-                (-u.ln()) as f32
-            })
-            .collect()
+        let mut g = crate::test_util::Lcg(seed);
+        (0..n).map(|_| (-g.unit().ln()) as f32).collect()
     }
 
     fn count_false_alarms(cfar: &CaCfar, lines: usize, len: usize, scale: f32) -> usize {
@@ -327,13 +319,8 @@ mod tests {
     /// `m` apart have `ρ_m = (5 − m)/5`, i.e. power correlation `r = [0.64, 0.36, 0.16, 0.04]`,
     /// close to a Hann-windowed range profile zero-padded by 2 (`[0.82, 0.44, 0.15, 0.03]`).
     fn correlated_noise(seed: u64, n: usize) -> std::vec::Vec<f32> {
-        let mut s = seed;
-        let mut uniform = || {
-            s = s
-                .wrapping_mul(6364136223846793005)
-                .wrapping_add(1442695040888963407);
-            ((s >> 11) as f64 + 1.0) / (1u64 << 53) as f64
-        };
+        let mut g = crate::test_util::Lcg(seed);
+        let mut uniform = || g.unit();
         // Box–Muller: one complex Gaussian of unit power per pair of uniforms.
         let z: std::vec::Vec<(f64, f64)> = (0..n + 4)
             .map(|_| {
