@@ -9,7 +9,6 @@ use std::time::Instant;
 
 use glam::{DVec3, Vec3};
 use has_host::paths::{Tracer, TracerConfig};
-use has_host::scenario::SceneSpec;
 use has_host::Scene;
 use rand::{Rng, SeedableRng};
 
@@ -49,8 +48,7 @@ pub fn bench_paths(
     threads: &[usize],
     seed: u64,
 ) -> anyhow::Result<Vec<BenchRow>> {
-    let scene = SceneSpec::load(scene_file)
-        .and_then(|s| s.build())
+    let scene = has_host::scenario::load_scene(scene_file)
         .map_err(|e| anyhow::anyhow!("--paths-scene: {e}"))?;
     let tracer = Tracer::new(&scene, TracerConfig::default())?;
     let ues = random_ues(&scene, UES, 1.5, seed);

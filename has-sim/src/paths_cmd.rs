@@ -1,16 +1,17 @@
 //! `has-sim paths`: propagation paths between one transmitter and one receiver in a scene file
-//! (TOML `[scene]` table, see `has_host::scenario`), printed one per line or as JSON.
+//! (TOML `[scene]` table, see `has_host::scenario`, or a Sionna/Mitsuba XML, OBJ or PLY scene
+//! read directly), printed one per line or as JSON.
 
 use std::path::PathBuf;
 
 use glam::DVec3;
 use has_host::paths::{CandidateMode, Path, PathError, Tracer, TracerConfig};
-use has_host::scenario::SceneSpec;
 
 /// Arguments of `has-sim paths`.
 #[derive(clap::Args, Debug)]
 pub struct PathsArgs {
-    /// Scene file (TOML with a `[scene]` table).
+    /// Scene file: TOML with a `[scene]` table, a Sionna RT / Mitsuba XML scene, or an OBJ or
+    /// PLY mesh.
     #[arg(long)]
     pub scene: PathBuf,
     /// Transmitter position "X,Y,Z" in metres.
@@ -132,9 +133,8 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
         anyhow::bail!("--rays: 0 (need at least 1)");
     }
     // Flattened into one line: the scene errors already name the file and the cause.
-    let scene = SceneSpec::load(&args.scene)
-        .and_then(|s| s.build())
-        .map_err(|e| anyhow::anyhow!("--scene: {e}"))?;
+    let scene =
+        has_host::scenario::load_scene(&args.scene).map_err(|e| anyhow::anyhow!("--scene: {e}"))?;
     let tracer = traced(Tracer::new(
         &scene,
         TracerConfig {

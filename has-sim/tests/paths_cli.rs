@@ -84,3 +84,25 @@ fn coincident_ends_give_the_echoes_and_say_there_is_no_line_of_sight() {
     assert!(out.contains("reflection(yard)"), "{out}");
     assert!(!out.contains(" los"), "{out}");
 }
+
+#[test]
+fn a_sionna_xml_scene_is_read_directly() {
+    let xml = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/../fixtures/sionna_small/scene.xml"
+    );
+    let out = Command::new(env!("CARGO_BIN_EXE_has-sim"))
+        .args([
+            "paths", "--scene", xml, "--tx", "0,-10,5", "--rx", "5,-12,3",
+        ])
+        .output()
+        .expect("has-sim runs");
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    assert!(stdout.contains(" los"), "{stdout}");
+    assert!(stdout.contains("reflection(wall)"), "{stdout}");
+}
