@@ -19,6 +19,11 @@ use rayon::prelude::*;
 
 use crate::material::Material;
 
+/// "Straight up" for probing what covers a point: tilted by about 1.4° so that the ray neither
+/// runs along a vertical wall nor passes exactly through the shared edge of two triangles
+/// (a roof's diagonal over a symmetric point), where a hit test may miss.
+pub const PROBE_UP: Vec3 = Vec3::new(0.013, 0.021, 0.999_694_7);
+
 /// Largest coordinate magnitude (m) of a position the host accepts (a transmitter, a receiver,
 /// a point of a cloud): scenes and clouds are `f32`, whose spacing at 10⁶ m is 6 cm, two
 /// wavelengths at 10 GHz; farther out a ray test or a voxel resolves nothing of a building.
@@ -250,7 +255,7 @@ impl Scene {
     /// scenes have.
     pub fn enclosing_object(&self, p: Vec3) -> Option<u32> {
         const DIRS: [[f32; 3]; 5] = [
-            [0.013, 0.021, 1.0],
+            [PROBE_UP.x, PROBE_UP.y, PROBE_UP.z],
             [1.0, 0.019, 0.007],
             [-1.0, -0.023, 0.011],
             [0.015, 1.0, -0.009],

@@ -1,5 +1,6 @@
 //! Paths-per-second measurement of `has-sim bench raytrace`: the channel-prediction tracer
-//! (`has_host::paths`) with one base station at (0, 0, 25) m and 500 UEs at seeded random street
+//! (`has_host::paths`) with one base station at (0, 0, 25) m (raised above whatever covers that
+//! spot) and 500 UEs at seeded random street
 //! positions 1.5 m above ground, order 3, default tracer settings (200 000 SBR rays). One row per
 //! thread count; the time includes the candidate search (once per base station) and the tracing
 //! of every UE; `count` is the number of paths found.
@@ -9,6 +10,7 @@ use std::time::Instant;
 
 use glam::{DVec3, Vec3};
 use has_host::paths::{Tracer, TracerConfig};
+use has_host::scene::PROBE_UP;
 use has_host::Scene;
 use rand::{Rng, SeedableRng};
 
@@ -17,8 +19,19 @@ use crate::bench_raytrace::BenchRow;
 /// Number of UEs of the measurement.
 pub const UES: usize = 500;
 
-/// Base-station position of the measurement, metres.
+/// Base-station position of the measurement, metres, unless something covers it
+/// ([`bs_position`]).
 pub const BS: DVec3 = DVec3::new(0.0, 0.0, 25.0);
+
+/// [`BS`], or, where a roof or anything else lies above it (munich: 1 m under a roof, which gave
+/// 0 paths), 5 m above the highest surface straight over it.
+pub fn bs_position(scene: &Scene) -> DVec3 {
+    let mut p = BS;
+    while let Some(h) = scene.closest_hit(p.as_vec3(), PROBE_UP, 0.0, f32::INFINITY) {
+        p.z = h.point.z as f64 + 5.0;
+    }
+    p
+}
 
 /// `n` UE positions, uniformly in the scene's extent (inset 10 m) at `height` above its lowest
 /// point, rejected where a ray straight up hits something (inside or under a building).
@@ -52,12 +65,13 @@ pub fn bench_paths(
         .map_err(|e| anyhow::anyhow!("--paths-scene: {e}"))?;
     let tracer = Tracer::new(&scene, TracerConfig::default())?;
     let ues = random_ues(&scene, UES, 1.5, seed);
+    let bs = bs_position(&scene);
     let mut rows = Vec::new();
     for &t in threads {
         let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build()?;
         let (candidates, prepare_s, paths, seconds) = pool.install(|| -> anyhow::Result<_> {
             let t0 = Instant::now();
-            let cand = tracer.prepare_tx(BS)?;
+            let cand = tracer.prepare_tx(bs)?;
             let prepare_s = t0.elapsed().as_secs_f64();
             let all = tracer.trace_many(&cand, &ues)?;
             let n: usize = all.iter().map(Vec::len).sum();
@@ -69,7 +83,10 @@ pub fn bench_paths(
             paths,
             seconds,
             format!(
-                "{} UEs, {} facets, {} candidate sequences in {:.3} s, {:.0} UEs/s",
+                "BS at ({}, {}, {}), {} UEs, {} facets, {} candidate sequences in {:.3} s, {:.0} UEs/s",
+                bs.x,
+                bs.y,
+                bs.z,
                 ues.len(),
                 tracer.facets().facets.len(),
                 candidates,
@@ -79,4 +96,35 @@ pub fn bench_paths(
         ));
     }
     Ok(rows)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use has_host::shapes::axis_box;
+    use has_host::Material;
+
+    #[test]
+    fn the_base_station_is_raised_above_a_roof_that_covers_it() {
+        let open = Scene::new(vec![axis_box(
+            "hut",
+            Material::Concrete,
+            Vec3::new(20.0, 20.0, 0.0),
+            Vec3::new(30.0, 30.0, 8.0),
+        )
+        .unwrap()])
+        .unwrap();
+        assert_eq!(bs_position(&open), BS);
+        let tower = Scene::new(vec![axis_box(
+            "tower",
+            Material::Concrete,
+            Vec3::new(-5.0, -5.0, 0.0),
+            Vec3::new(5.0, 5.0, 26.0),
+        )
+        .unwrap()])
+        .unwrap();
+        let p = bs_position(&tower);
+        assert_eq!((p.x, p.y), (0.0, 0.0));
+        assert!((p.z - 31.0).abs() < 1e-4, "{p}");
+    }
 }
