@@ -64,15 +64,33 @@ fn num(x: f64) -> String {
 }
 
 /// One path as the JSON object of `has-sim paths --json`, keys in the documented order:
-/// `delay_ns, gain_db, phase_rad, aod_deg, zod_deg, aoa_deg, zoa_deg, interactions`.
-pub fn path_json(p: &Path) -> String {
+/// `delay_ns, gain_db, phase_rad, aod_deg, zod_deg, aoa_deg, zoa_deg, interactions, objects,
+/// points` — per interaction its kind, the name of the object it meets (`null` for line of
+/// sight; `objects[i]` names scene object `i`) and its point `[x, y, z]` in metres (`null` for
+/// line of sight).
+pub fn path_json(p: &Path, objects: &[String]) -> String {
+    use has_host::paths::Interaction;
     let kinds: Vec<String> = p
         .interactions
         .iter()
         .map(|i| format!("\"{}\"", i.kind()))
         .collect();
+    let (names, points): (Vec<String>, Vec<String>) = p
+        .interactions
+        .iter()
+        .map(|i| match i {
+            Interaction::Reflection { object, point, .. }
+            | Interaction::Diffraction { object, point } => (
+                objects.get(*object as usize).map_or("null".into(), |n| {
+                    serde_json::Value::from(n.as_str()).to_string()
+                }),
+                format!("[{},{},{}]", num(point.x), num(point.y), num(point.z)),
+            ),
+            Interaction::Los => ("null".into(), "null".into()),
+        })
+        .unzip();
     format!(
-        "{{\"delay_ns\":{},\"gain_db\":{},\"phase_rad\":{},\"aod_deg\":{},\"zod_deg\":{},\"aoa_deg\":{},\"zoa_deg\":{},\"interactions\":[{}]}}",
+        "{{\"delay_ns\":{},\"gain_db\":{},\"phase_rad\":{},\"aod_deg\":{},\"zod_deg\":{},\"aoa_deg\":{},\"zoa_deg\":{},\"interactions\":[{}],\"objects\":[{}],\"points\":[{}]}}",
         num(p.delay_s * 1e9),
         num(p.gain_db()),
         num(p.a.arg()),
@@ -80,13 +98,15 @@ pub fn path_json(p: &Path) -> String {
         num(p.zod.to_degrees()),
         num(p.aoa.to_degrees()),
         num(p.zoa.to_degrees()),
-        kinds.join(",")
+        kinds.join(","),
+        names.join(","),
+        points.join(",")
     )
 }
 
-/// `{"paths":[…]}` for a set of paths.
-pub fn paths_json(paths: &[Path]) -> String {
-    let items: Vec<String> = paths.iter().map(path_json).collect();
+/// `{"paths":[…]}` for a set of paths; `objects` names the scene's objects.
+pub fn paths_json(paths: &[Path], objects: &[String]) -> String {
+    let items: Vec<String> = paths.iter().map(|p| path_json(p, objects)).collect();
     format!("{{\"paths\":[{}]}}", items.join(","))
 }
 
@@ -167,7 +187,8 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
         );
     }
     if args.json {
-        println!("{}", paths_json(&paths));
+        let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
+        println!("{}", paths_json(&paths, &names));
         return Ok(());
     }
     println!(
@@ -230,13 +251,27 @@ mod tests {
             zoa: 2.0,
             interactions: vec![has_host::paths::Interaction::Los],
         };
-        let s = paths_json(&[p]);
+        let wall = Path {
+            interactions: vec![has_host::paths::Interaction::Reflection {
+                object: 1,
+                facet: 0,
+                point: DVec3::new(1.0, -2.5, 3.0),
+            }],
+            ..p.clone()
+        };
+        let names = ["ground".to_string(), "wall \"A\"".to_string()];
+        let s = paths_json(&[p, wall], &names);
         let v: serde_json::Value = serde_json::from_str(&s).unwrap();
         let o = &v["paths"][0];
         assert!((o["delay_ns"].as_f64().unwrap() - 100.0).abs() < 1e-9);
         assert!((o["gain_db"].as_f64().unwrap() + 60.0).abs() < 1e-9);
         assert!((o["phase_rad"].as_f64().unwrap() - std::f64::consts::FRAC_PI_2).abs() < 1e-12);
         assert_eq!(o["interactions"][0], "los");
+        assert!(o["objects"][0].is_null() && o["points"][0].is_null());
+        let r = &v["paths"][1];
+        assert_eq!(r["interactions"][0], "reflection");
+        assert_eq!(r["objects"][0], "wall \"A\"");
+        assert_eq!(r["points"][0], serde_json::json!([1.0, -2.5, 3.0]));
         let keys = [
             "delay_ns",
             "gain_db",
@@ -246,6 +281,8 @@ mod tests {
             "aoa_deg",
             "zoa_deg",
             "interactions",
+            "objects",
+            "points",
         ];
         let pos: Vec<usize> = keys
             .iter()
