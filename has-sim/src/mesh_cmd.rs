@@ -96,8 +96,9 @@ pub struct MeshArgs {
     /// prints √CD and F-scores of the input cloud and of the mesh against it.
     #[arg(long)]
     pub truth: Option<PathBuf>,
-    /// Sampling density of mesh surfaces for the metrics, points per m².
-    #[arg(long, default_value_t = 25.0)]
+    /// Sampling density of mesh surfaces for the metrics, points per m² (the default is a
+    /// scenario's `imaging.truth_density_per_m2` default, as `reconstruct` scores its mesh).
+    #[arg(long, default_value_t = has_host::imaging::config::DEFAULT_TRUTH_DENSITY_PER_M2)]
     pub truth_density: f64,
     /// Also mesh the same oriented points with the crates.io `poisson_reconstruction` crate
     /// (needs the `poisson-crate` feature) and report its quality and time.

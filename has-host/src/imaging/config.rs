@@ -335,8 +335,12 @@ fn default_ground_density() -> f64 {
 fn default_ground_margin() -> f32 {
     10.0
 }
+/// Samples per m² of a surface scored against the truth (the truth itself, and a mesh in
+/// `reconstruct` and `has-sim mesh`), unless a scenario says otherwise.
+pub const DEFAULT_TRUTH_DENSITY_PER_M2: f64 = 16.0;
+
 fn default_truth_density() -> f64 {
-    16.0
+    DEFAULT_TRUTH_DENSITY_PER_M2
 }
 fn default_vis_shift() -> f32 {
     0.5
