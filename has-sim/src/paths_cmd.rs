@@ -18,8 +18,18 @@ pub struct PathsArgs {
     #[arg(long, allow_hyphen_values = true)]
     pub tx: String,
     /// Receiver position "X,Y,Z" in metres.
-    #[arg(long, allow_hyphen_values = true)]
-    pub rx: String,
+    #[arg(
+        long,
+        allow_hyphen_values = true,
+        required_unless_present = "rx_file",
+        conflicts_with = "rx_file"
+    )]
+    pub rx: Option<String>,
+    /// Many receivers in one call: a text file with one "X,Y,Z" per line (metres; blank lines
+    /// and lines starting with '#' skipped). The transmitter's candidates are searched once and
+    /// every receiver traced in parallel; rows (and JSON entries) carry the receiver's index.
+    #[arg(long)]
+    pub rx_file: Option<PathBuf>,
     /// Highest number of reflections per path.
     #[arg(long, default_value_t = 3)]
     pub max_order: usize,
@@ -138,7 +148,11 @@ fn traced<T>(r: Result<T, PathError>) -> anyhow::Result<T> {
 /// Runs `has-sim paths`.
 pub fn run(args: PathsArgs) -> anyhow::Result<()> {
     let tx = parse_point("--tx", &args.tx)?;
-    let rx = parse_point("--rx", &args.rx)?;
+    let rxs = match (&args.rx, &args.rx_file) {
+        (Some(rx), _) => vec![parse_point("--rx", rx)?],
+        (None, Some(file)) => read_receivers(file)?,
+        (None, None) => anyhow::bail!("--rx or --rx-file is needed"),
+    };
     if !(args.freq_ghz.is_finite() && args.freq_ghz > 0.0) {
         anyhow::bail!("--freq-ghz: {} is not a positive frequency", args.freq_ghz);
     }
@@ -168,7 +182,16 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
             ..TracerConfig::default()
         },
     ))?;
-    for (flag, p) in [("--tx", tx), ("--rx", rx)] {
+    let ends =
+        std::iter::once(("--tx".to_string(), tx)).chain(rxs.iter().enumerate().map(|(i, &p)| {
+            let flag = if args.rx.is_some() {
+                "--rx".to_string()
+            } else {
+                format!("--rx-file: receiver {i}")
+            };
+            (flag, p)
+        }));
+    for (flag, p) in ends {
         if let Some(o) = scene.enclosing_object(p.as_vec3()) {
             anyhow::bail!(
                 "{flag}: ({}, {}, {}) lies inside or under object '{}' (every ray from it meets \
@@ -180,46 +203,107 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
             );
         }
     }
-    let paths = traced(tracer.paths(tx, rx))?;
-    if (rx - tx).length() < has_host::wavelength_m(args.freq_ghz * 1e9) {
+    let cand = traced(tracer.prepare_tx(tx))?;
+    let all = traced(tracer.trace_many(&cand, &rxs))?;
+    let lambda = has_host::wavelength_m(args.freq_ghz * 1e9);
+    if rxs.iter().any(|&rx| (rx - tx).length() < lambda) {
         eprintln!(
-            "note: --tx and --rx are within a wavelength (monostatic): no line-of-sight path"
+            "note: a receiver within a wavelength of --tx (monostatic) has no line-of-sight path"
         );
     }
+    let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
     if args.json {
-        let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
-        println!("{}", paths_json(&paths, &names));
+        if args.rx.is_some() {
+            println!("{}", paths_json(&all[0], &names));
+        } else {
+            let items: Vec<String> = rxs
+                .iter()
+                .zip(&all)
+                .map(|(rx, paths)| {
+                    // `{"paths":[…]}` without its braces, after the receiver.
+                    let pj = paths_json(paths, &names);
+                    format!(
+                        "{{\"rx\":[{},{},{}],{}}}",
+                        num(rx.x),
+                        num(rx.y),
+                        num(rx.z),
+                        &pj[1..pj.len() - 1]
+                    )
+                })
+                .collect();
+            println!("{{\"receivers\":[{}]}}", items.join(","));
+        }
         return Ok(());
     }
+    let many = args.rx.is_none();
     println!(
-        "{:>4} {:>11} {:>9} {:>10} {:>8} {:>8} {:>8} {:>8}  interactions",
-        "#", "delay_ns", "gain_db", "phase_rad", "aod_deg", "zod_deg", "aoa_deg", "zoa_deg"
+        "{}{:>4} {:>11} {:>9} {:>10} {:>8} {:>8} {:>8} {:>8}  interactions",
+        if many {
+            format!("{:>5} ", "rx")
+        } else {
+            String::new()
+        },
+        "#",
+        "delay_ns",
+        "gain_db",
+        "phase_rad",
+        "aod_deg",
+        "zod_deg",
+        "aoa_deg",
+        "zoa_deg"
     );
-    for (i, p) in paths.iter().enumerate() {
-        let kinds: Vec<String> = p
-            .interactions
-            .iter()
-            .map(|it| match it {
-                has_host::paths::Interaction::Reflection { object, .. } => {
-                    format!("reflection({})", scene.objects[*object as usize].name)
-                }
-                other => other.kind().to_string(),
-            })
-            .collect();
-        println!(
-            "{:>4} {:>11.4} {:>9.2} {:>10.4} {:>8.2} {:>8.2} {:>8.2} {:>8.2}  {}",
-            i,
-            p.delay_s * 1e9,
-            p.gain_db(),
-            p.a.arg(),
-            p.aod.to_degrees(),
-            p.zod.to_degrees(),
-            p.aoa.to_degrees(),
-            p.zoa.to_degrees(),
-            kinds.join(" > ")
-        );
+    for (r, paths) in all.iter().enumerate() {
+        for (i, p) in paths.iter().enumerate() {
+            let kinds: Vec<String> = p
+                .interactions
+                .iter()
+                .map(|it| match it {
+                    has_host::paths::Interaction::Reflection { object, .. } => {
+                        format!("reflection({})", names[*object as usize])
+                    }
+                    other => other.kind().to_string(),
+                })
+                .collect();
+            println!(
+                "{}{:>4} {:>11.4} {:>9.2} {:>10.4} {:>8.2} {:>8.2} {:>8.2} {:>8.2}  {}",
+                if many {
+                    format!("{r:>5} ")
+                } else {
+                    String::new()
+                },
+                i,
+                p.delay_s * 1e9,
+                p.gain_db(),
+                p.a.arg(),
+                p.aod.to_degrees(),
+                p.zod.to_degrees(),
+                p.aoa.to_degrees(),
+                p.zoa.to_degrees(),
+                kinds.join(" > ")
+            );
+        }
     }
     Ok(())
+}
+
+/// The receivers of `--rx-file`: one "X,Y,Z" per line, blank lines and `#` comments skipped; a
+/// bad line is an error naming its number.
+fn read_receivers(path: &std::path::Path) -> anyhow::Result<Vec<DVec3>> {
+    let text = std::fs::read_to_string(path)
+        .map_err(|e| anyhow::anyhow!("--rx-file: {}: {e}", path.display()))?;
+    let mut out = Vec::new();
+    for (n, line) in text.lines().enumerate() {
+        let l = line.trim();
+        if l.is_empty() || l.starts_with('#') {
+            continue;
+        }
+        let flag = format!("--rx-file: {} line {}", path.display(), n + 1);
+        out.push(parse_point(&flag, l)?);
+    }
+    if out.is_empty() {
+        anyhow::bail!("--rx-file: {}: no receivers", path.display());
+    }
+    Ok(out)
 }
 
 #[cfg(test)]

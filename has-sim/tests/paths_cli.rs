@@ -106,3 +106,35 @@ fn a_sionna_xml_scene_is_read_directly() {
     assert!(stdout.contains(" los"), "{stdout}");
     assert!(stdout.contains("reflection(wall)"), "{stdout}");
 }
+
+#[test]
+fn many_receivers_in_one_call_give_each_receivers_own_paths() {
+    let dir = std::env::temp_dir().join(format!("has-paths-rx-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).unwrap();
+    let file = dir.join("rx.csv");
+    std::fs::write(&file, "# x, y, z\n0,-40,10\n\n5,-45,3\n").unwrap();
+    let json = |args: &[&str]| -> serde_json::Value {
+        let (ok, out, err) = paths(args);
+        assert!(ok, "{err}");
+        serde_json::from_str(&out).expect("JSON")
+    };
+    let many = json(&[
+        "--tx",
+        "0,-30,10",
+        "--rx-file",
+        file.to_str().unwrap(),
+        "--json",
+    ]);
+    let receivers = many["receivers"].as_array().expect("receivers");
+    assert_eq!(receivers.len(), 2);
+    for (r, rx) in receivers.iter().zip(["0,-40,10", "5,-45,3"]) {
+        let one = json(&["--tx", "0,-30,10", "--rx", rx, "--json"]);
+        assert!(!one["paths"].as_array().unwrap().is_empty());
+        assert_eq!(r["paths"], one["paths"], "{rx}");
+    }
+    std::fs::write(&file, "0,-40,10\n1,2\n").unwrap();
+    let (ok, _, err) = paths(&["--tx", "0,-30,10", "--rx-file", file.to_str().unwrap()]);
+    assert!(!ok);
+    assert!(err.contains("line 2: '1,2' is not X,Y,Z"), "{err}");
+    let _ = std::fs::remove_dir_all(&dir);
+}
