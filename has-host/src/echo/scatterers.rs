@@ -85,12 +85,9 @@ impl ScattererSet {
         // Every triangle draws about area × density points before `keep` (work), and at worst
         // keeps them all (memory): refuse what would not fit before drawing any.
         let area: f64 = scene
-            .triangles
+            .objects
             .iter()
-            .map(|t| {
-                let (v0, v1, v2) = (Vec3::from(t.v0), Vec3::from(t.v1), Vec3::from(t.v2));
-                0.5 * (v1 - v0).cross(v2 - v0).length() as f64
-            })
+            .map(|o| crate::shapes::surface_area(&o.triangles))
             .sum();
         let count = area * density_per_m2 + scene.triangles.len() as f64;
         let need = count * std::mem::size_of::<Scatterer>() as f64;
