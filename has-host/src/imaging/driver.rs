@@ -46,8 +46,9 @@ use rayon::prelude::*;
 
 use super::config::{Detection, ImagingScenario};
 use super::detection::{
-    alias_is_stronger, coherence_factor, detected, effective_looks, image_false_alarm_probability,
-    layer_looks_per_voxel, layer_window, local_mean, pareto_factor, CfarFactors,
+    alias_is_stronger, alias_window_m, coherence_factor, detected, effective_looks,
+    image_false_alarm_probability, layer_looks_per_voxel, layer_window, local_mean, pareto_factor,
+    CfarFactors,
 };
 use super::run::World;
 use super::sensors::{pair_resolution_m, PlanarArray, VirtualAperture};
@@ -1092,6 +1093,7 @@ fn extract_points(
 ) -> (Vec<Vec3>, Vec<f32>) {
     let (local_max, alias_test) = (sc.imaging.local_max, sc.imaging.alias_test);
     let lambda = sc.wavelength_m() as f32;
+    let bandwidth_hz = (sc.radar.bandwidth_mhz * 1e6) as f32;
     // Lookup of |I| at any world position imaged (nearest voxel; None outside active bricks).
     let v = bricks.first().map(|b| b.bp.grid().spacing.x).unwrap_or(1.0);
     let mut index = std::collections::HashMap::new();
@@ -1148,7 +1150,10 @@ fn extract_points(
             }
             if alias_test {
                 let aliases = geo.array.grating_aliases(lambda, p, tx_c);
-                if alias_is_stronger(&aliases, a, v, lookup) {
+                let (r, xv, xh, xz) =
+                    pair_resolution_m(p, &geo.array, &geo.aperture, lambda, bandwidth_hz);
+                let half = alias_window_m(r, xv, xh, xz);
+                if alias_is_stronger(&aliases, a, half, v, lookup) {
                     continue;
                 }
             }
