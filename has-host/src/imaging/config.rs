@@ -203,6 +203,11 @@ pub struct ImagingSpec {
     /// Keep only voxels that are local maxima along the bistatic range direction.
     #[serde(default = "default_true")]
     pub local_max: bool,
+    /// Move each pair's detections that lie in the skirt of a stronger echo's point-spread
+    /// function (below half its power, within the pair's resolution along the direction it
+    /// resolves worst) to that echo's power centroid ([`super::centroid`]).
+    #[serde(default = "default_true")]
+    pub skirt_centroid: bool,
     /// Use every n-th element of each array in both directions (1: all).
     #[serde(default = "default_one")]
     pub element_step: usize,

@@ -44,6 +44,7 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
+use super::centroid::skirt_to_centroid;
 use super::config::{Detection, ImagingScenario};
 use super::detection::{
     alias_is_stronger, alias_window_m, coherence_factor, detected, effective_looks,
@@ -831,7 +832,18 @@ pub fn image_pair(
     drop(img_m);
     drop(img_i);
     drop(img_r);
-    let (points, intensity) = extract_points(sc, &bricks, &img, &detected, &geo);
+    let (mut points, intensity) = extract_points(sc, &bricks, &img, &detected, &geo);
+    if im.skirt_centroid {
+        points = skirt_to_centroid(
+            &points,
+            &intensity,
+            &geo.array,
+            &geo.aperture,
+            sc.wavelength_m() as f32,
+            (sc.radar.bandwidth_mhz * 1e6) as f32,
+            v,
+        );
+    }
     Ok(PairImage {
         points,
         intensity,

@@ -1,6 +1,7 @@
 //! Hybrid-aperture imaging: the scenario, sensors (real and virtual apertures), the frame-by-frame
 //! driver that feeds has-dsp back-projection, pair planning, point-cloud extraction and fusion.
 
+pub mod centroid;
 pub mod config;
 pub mod confirmation;
 pub mod detection;

@@ -223,12 +223,8 @@ pub fn nyquist_spacing_m(wavelength_m: f32, half_angle_rad: f32) -> f32 {
 }
 
 /// Theoretical resolutions of one hybrid-aperture pair at a scene point, metres:
-/// `(range, cross_range_virtual, cross_range_real_h, cross_range_real_v)`.
-///
-/// Range resolution is `c/B` in bistatic path length, i.e. `c / (B·|∇(r_V + r_R)|)` along the
-/// bisector where `|∇(r_V + r_R)| = 2 cos(β/2)` for bistatic angle β. Cross-range from an aperture
-/// of length `L` at distance `R` is `λR/L` for the one-way (virtual, transmitter-only) phase and for
-/// the receive array alike.
+/// `(range, cross_range_virtual, cross_range_real_h, cross_range_real_v)`, the extents of
+/// [`pair_resolution_axes`].
 pub fn pair_resolution_m(
     point: Vec3,
     array: &PlanarArray,
@@ -236,17 +232,49 @@ pub fn pair_resolution_m(
     wavelength_m: f32,
     bandwidth_hz: f32,
 ) -> (f32, f32, f32, f32) {
+    let [r, v, h, z] = pair_resolution_axes(point, array, aperture, wavelength_m, bandwidth_hz);
+    (r.1, v.1, h.1, z.1)
+}
+
+/// The four directions one hybrid-aperture pair resolves at a scene point, each with its
+/// resolution along it (metres): range, the virtual aperture's cross-range, the receive panel's
+/// horizontal and vertical cross-ranges. Directions are unit vectors (zero where undefined, e.g.
+/// a track pointing at the point).
+///
+/// Range resolution is `c/B` in bistatic path length, i.e. `c / (B·|∇(r_V + r_R)|)` along the
+/// bisector `∇(r_V + r_R)`, where `|∇(r_V + r_R)| = 2 cos(β/2)` for bistatic angle β.
+/// Cross-range from an aperture of length `L` at distance `R` is `λR/L` for the one-way
+/// (virtual, transmitter-only) phase and for the receive array alike, along the aperture's
+/// direction (the track; the panel's horizontal tangent; the vertical) projected across the line
+/// of sight.
+pub fn pair_resolution_axes(
+    point: Vec3,
+    array: &PlanarArray,
+    aperture: &VirtualAperture,
+    wavelength_m: f32,
+    bandwidth_hz: f32,
+) -> [(Vec3, f32); 4] {
     let c = has_dsp::geometry::C_M_PER_S as f32;
     let uv = (aperture.centre() - point).normalize_or_zero();
     let ur = (array.centre - point).normalize_or_zero();
-    let grad = (uv + ur).length().max(1e-3);
-    let range = c / (bandwidth_hz * grad);
+    let grad = uv + ur;
+    let range = c / (bandwidth_hz * grad.length().max(1e-3));
     let rv = aperture.centre().distance(point);
     let rr = array.centre.distance(point);
-    let xv = wavelength_m * rv / aperture.length_m().max(1e-3);
-    let xh = wavelength_m * rr / array.width_m;
-    let xz = wavelength_m * rr / array.height_m;
-    (range, xv, xh, xz)
+    let across = |d: Vec3, u: Vec3| (d - u * d.dot(u)).normalize_or_zero();
+    let track = (aperture.end - aperture.start).normalize_or_zero();
+    [
+        (grad.normalize_or_zero(), range),
+        (
+            across(track, uv),
+            wavelength_m * rv / aperture.length_m().max(1e-3),
+        ),
+        (
+            across(array.tangent(), ur),
+            wavelength_m * rr / array.width_m,
+        ),
+        (across(Vec3::Z, ur), wavelength_m * rr / array.height_m),
+    ]
 }
 
 #[cfg(test)]
