@@ -143,8 +143,9 @@ fn summary_line(name: &str, m: &serde_json::Value) -> String {
 }
 
 /// Writes `mesh` as OBJ (one object, concrete; the format of [`has_host::io::obj::write_obj`],
-/// written straight from the indexed mesh without a triangle-soup copy) and optionally as PLY
-/// with vertex densities.
+/// written straight from the indexed mesh without a triangle-soup copy, with area-weighted vertex
+/// normals `vn`, [`TriMesh::vertex_normals`]) and optionally as PLY with the same normals
+/// (`nx`, `ny`, `nz`) and vertex densities.
 pub fn write_mesh(
     mesh: &TriMesh,
     obj: &Path,
@@ -163,6 +164,7 @@ pub fn write_mesh(
     if let Some(i) = mesh.vertices.iter().position(|v| !v.is_finite()) {
         bail!("mesh vertex {i} is not finite: {:?}", mesh.vertices[i]);
     }
+    let normals = mesh.vertex_normals();
     has_host::io::atomic_write(obj, |w| {
         use std::io::Write;
         writeln!(w, "# written by has: metres, z up")?;
@@ -171,8 +173,12 @@ pub fn write_mesh(
         for v in &mesh.vertices {
             writeln!(w, "v {} {} {}", v.x, v.y, v.z)?;
         }
+        for n in &normals {
+            writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
+        }
         for f in &mesh.faces {
-            writeln!(w, "f {} {} {}", f[0] + 1, f[1] + 1, f[2] + 1)?;
+            let [a, b, c] = f.map(|i| i + 1);
+            writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
         }
         Ok(())
     })?;
@@ -182,6 +188,10 @@ pub fn write_mesh(
             properties: Vec::new(),
             faces: mesh.faces.clone(),
         };
+        for (k, name) in ["nx", "ny", "nz"].into_iter().enumerate() {
+            data.properties
+                .push((name.into(), normals.iter().map(|n| n[k]).collect()));
+        }
         if let Some(d) = density {
             data.properties.push(("density".into(), d.to_vec()));
         }

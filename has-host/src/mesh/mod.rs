@@ -5,12 +5,14 @@
 //! Units: metres. Faces are counter-clockwise seen from outside (normals by the right-hand rule
 //! point out of the reconstructed solid). [`TriMesh::topology`] counts edge uses: a mesh is
 //! *edge-manifold* when no undirected edge is used by more than two faces and the two uses run in
-//! opposite directions, and *watertight* when, in addition, every edge is used exactly twice.
+//! opposite directions, and *watertight* when, in addition, every edge is used exactly twice;
+//! [`repair`] makes the written mesh pass the vertex-manifold check as well.
 
 pub mod band;
 pub mod iso;
 pub mod normals;
 pub mod poisson;
+pub mod repair;
 pub mod visibility;
 
 use std::collections::HashMap;
@@ -50,7 +52,11 @@ pub struct Topology {
     pub misoriented_edges: usize,
     /// Faces with a repeated vertex index.
     pub degenerate_faces: usize,
-    /// No non-manifold or misoriented edge and no degenerate face.
+    /// Vertices whose faces form two or more fans touching only there (bow-ties,
+    /// [`TriMesh::nonmanifold_vertices`]).
+    pub nonmanifold_vertices: usize,
+    /// No non-manifold or misoriented edge, no degenerate face and no bow-tie vertex (Open3D's
+    /// edge- and vertex-manifold checks together).
     pub manifold: bool,
     /// Manifold and without boundary edges (a closed surface), and not empty.
     pub watertight: bool,
@@ -137,7 +143,11 @@ impl TriMesh {
             }
             i = j;
         }
-        t.manifold = t.nonmanifold_edges == 0 && t.misoriented_edges == 0 && degenerate_faces == 0;
+        t.nonmanifold_vertices = self.nonmanifold_vertices();
+        t.manifold = t.nonmanifold_edges == 0
+            && t.misoriented_edges == 0
+            && degenerate_faces == 0
+            && t.nonmanifold_vertices == 0;
         t.watertight = t.manifold && t.boundary_edges == 0 && !self.faces.is_empty();
         t
     }
@@ -406,6 +416,10 @@ pub fn reconstruct(
         Some(d) => mesh.clip_to_support(points, d)?,
         None => mesh,
     };
+    // What other tools reject (coincident vertices, degenerate and duplicate faces, bow-ties),
+    // repaired before small components are counted: a fragment that touched the surface at one
+    // vertex is then a component of its own.
+    let mesh = mesh.repaired();
     let mesh = match params.min_component_fraction {
         Some(f) => mesh.remove_small_components(f)?,
         None => mesh,
@@ -500,8 +514,12 @@ mod tests {
                 _ => t.nonmanifold_edges += 1,
             }
         }
-        t.manifold =
-            t.nonmanifold_edges == 0 && t.misoriented_edges == 0 && t.degenerate_faces == 0;
+        // Vertex fans are tested in `repair`; the edge counting is what this reference checks.
+        t.nonmanifold_vertices = m.nonmanifold_vertices();
+        t.manifold = t.nonmanifold_edges == 0
+            && t.misoriented_edges == 0
+            && t.degenerate_faces == 0
+            && t.nonmanifold_vertices == 0;
         t.watertight = t.manifold && t.boundary_edges == 0 && !m.faces.is_empty();
         t
     }

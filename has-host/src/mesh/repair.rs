@@ -1,0 +1,284 @@
+//! Mesh repair for other tools: the mesh as written must pass the checks MeshLab, Open3D and
+//! trimesh apply to what they load.
+//!
+//! What a marching-tetrahedra surface, trimmed and clipped, can hold and those tools reject:
+//! * **coincident vertices** under different indices (Open3D's `remove_duplicated_vertices`
+//!   welds bit-identical positions on load, turning the faces between them into degenerate faces
+//!   and their edges into non-manifold ones);
+//! * **degenerate faces**: a repeated vertex index, or zero area (three collinear points);
+//! * **duplicate faces**: the same three vertices twice (an edge then used three or more times);
+//! * **non-manifold ("bow-tie") vertices**: the faces around a vertex form two or more fans that
+//!   share only that vertex (Open3D's `is_vertex_manifold`; a trim can leave two sheets, or a
+//!   fragment, touching at one vertex).
+//!
+//! [`TriMesh::repaired`] welds bit-identical vertices, drops degenerate and duplicate faces, and
+//! at a bow-tie vertex keeps the largest fan and drops the other fans' faces at that vertex (a
+//! fragment attached by one vertex loses its faces there and, if small, the small-component rule
+//! of [`super::reconstruct`] removes the rest; no coincident vertices are written). [`TriMesh::nonmanifold_vertices`] counts the
+//! bow-ties, [`TriMesh::vertex_normals`] gives the area-weighted unit normals that the writers
+//! store with each vertex.
+//!
+//! Units: metres; faces counter-clockwise seen from outside.
+
+use std::collections::HashMap;
+
+use glam::Vec3;
+
+use super::TriMesh;
+
+/// Faces of at most this area (m²) are degenerate: collinear vertices, whose normal is undefined.
+pub const MIN_FACE_AREA_M2: f32 = 1e-12;
+
+/// Rounds of bow-tie removal in [`TriMesh::repaired`] (each round can expose a new bow-tie next
+/// to a dropped face; measured meshes need one or two).
+const BOWTIE_ROUNDS: usize = 16;
+
+impl TriMesh {
+    /// The faces around each vertex grouped into fans (faces linked through an edge at that
+    /// vertex): for each vertex, the fan label of each incident face, in `faces` order.
+    fn vertex_fans(&self) -> Vec<Vec<(u32, u32)>> {
+        // (vertex, face) incidences; per vertex, union-find over its incident faces by the
+        // other endpoint of the edges they share.
+        let mut around: Vec<Vec<u32>> = vec![Vec::new(); self.vertices.len()];
+        for (fi, f) in self.faces.iter().enumerate() {
+            for &v in f {
+                around[v as usize].push(fi as u32);
+            }
+        }
+        around
+            .iter()
+            .enumerate()
+            .map(|(v, faces)| {
+                let v = v as u32;
+                let mut parent: Vec<usize> = (0..faces.len()).collect();
+                fn find(p: &mut [usize], mut a: usize) -> usize {
+                    while p[a] != a {
+                        p[a] = p[p[a]];
+                        a = p[a];
+                    }
+                    a
+                }
+                // Faces sharing the edge (v, w) are in one fan.
+                let mut by_other: HashMap<u32, usize> = HashMap::new();
+                for (k, &fi) in faces.iter().enumerate() {
+                    for &w in &self.faces[fi as usize] {
+                        if w == v {
+                            continue;
+                        }
+                        match by_other.get(&w) {
+                            Some(&j) => {
+                                let (a, b) = (find(&mut parent, j), find(&mut parent, k));
+                                if a != b {
+                                    parent[a.max(b)] = a.min(b);
+                                }
+                            }
+                            None => {
+                                by_other.insert(w, k);
+                            }
+                        }
+                    }
+                }
+                let mut label: HashMap<usize, u32> = HashMap::new();
+                faces
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &fi)| {
+                        let root = find(&mut parent, k);
+                        let next = label.len() as u32;
+                        (fi, *label.entry(root).or_insert(next))
+                    })
+                    .collect()
+            })
+            .collect()
+    }
+
+    /// Vertices whose incident faces form more than one fan (bow-ties, module docs).
+    pub fn nonmanifold_vertices(&self) -> usize {
+        self.vertex_fans()
+            .iter()
+            .filter(|fans| fans.iter().any(|&(_, l)| l > 0))
+            .count()
+    }
+
+    /// The mesh with bit-identical vertices welded, degenerate (repeated index or area ≤
+    /// [`MIN_FACE_AREA_M2`]) and duplicate faces dropped, the faces of every fan but the largest
+    /// at a bow-tie vertex dropped, and unused vertices dropped (module docs). Kept faces keep
+    /// their order and orientation.
+    pub fn repaired(&self) -> TriMesh {
+        // Weld.
+        let mut index: HashMap<[u32; 3], u32> = HashMap::new();
+        let mut vertices = Vec::new();
+        let map: Vec<u32> = self
+            .vertices
+            .iter()
+            .map(|v| {
+                *index
+                    .entry([v.x.to_bits(), v.y.to_bits(), v.z.to_bits()])
+                    .or_insert_with(|| {
+                        vertices.push(*v);
+                        (vertices.len() - 1) as u32
+                    })
+            })
+            .collect();
+        // Degenerate and duplicate faces.
+        let mut seen = std::collections::HashSet::new();
+        let faces: Vec<[u32; 3]> = self
+            .faces
+            .iter()
+            .map(|f| f.map(|i| map[i as usize]))
+            .filter(|f| {
+                if f[0] == f[1] || f[1] == f[2] || f[0] == f[2] {
+                    return false;
+                }
+                let t = f.map(|i| vertices[i as usize]);
+                if crate::metrics::triangle_area(&t) <= MIN_FACE_AREA_M2 {
+                    return false;
+                }
+                let mut key = *f;
+                key.sort_unstable();
+                seen.insert(key)
+            })
+            .collect();
+        let mut out = TriMesh { vertices, faces };
+        // Bow-ties: the faces of every fan but the largest (most faces; the first on a tie) are
+        // dropped where they touch the vertex, in rounds, since a dropped face can leave a new
+        // bow-tie next to it. Splitting the vertex instead would write coincident copies, which
+        // a tool that welds on load (Open3D's `remove_duplicated_vertices`) joins again.
+        for _ in 0..BOWTIE_ROUNDS {
+            let mut drop = vec![false; out.faces.len()];
+            let mut any = false;
+            for incid in out.vertex_fans() {
+                let fans = incid
+                    .iter()
+                    .map(|&(_, l)| l as usize + 1)
+                    .max()
+                    .unwrap_or(0);
+                if fans < 2 {
+                    continue;
+                }
+                any = true;
+                let mut size = vec![0usize; fans];
+                incid.iter().for_each(|&(_, l)| size[l as usize] += 1);
+                let keep = (0..fans).fold(0, |b, l| if size[l] > size[b] { l } else { b });
+                for &(fi, l) in &incid {
+                    if l as usize != keep {
+                        drop[fi as usize] = true;
+                    }
+                }
+            }
+            if !any {
+                break;
+            }
+            let mut k = 0;
+            out.faces.retain(|_| {
+                k += 1;
+                !drop[k - 1]
+            });
+        }
+        out.remove_unused_vertices();
+        out
+    }
+
+    /// Area-weighted unit vertex normals (the sum of the incident faces' `(b − a) × (c − a)`,
+    /// normalised; +z for a vertex without faces): outward for counter-clockwise faces.
+    pub fn vertex_normals(&self) -> Vec<Vec3> {
+        let mut n = vec![Vec3::ZERO; self.vertices.len()];
+        for f in &self.faces {
+            let [a, b, c] = f.map(|i| self.vertices[i as usize]);
+            let w = (b - a).cross(c - a);
+            for &i in f {
+                n[i as usize] += w;
+            }
+        }
+        n.into_iter()
+            .map(|v| {
+                let u = v.normalize_or_zero();
+                if u == Vec3::ZERO {
+                    Vec3::Z
+                } else {
+                    u
+                }
+            })
+            .collect()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Two triangles touching only at vertex 0: a bow-tie.
+    fn bowtie() -> TriMesh {
+        TriMesh {
+            vertices: vec![
+                Vec3::ZERO,
+                Vec3::new(1.0, 0.0, 0.0),
+                Vec3::new(1.0, 1.0, 0.0),
+                Vec3::new(-1.0, 0.0, 0.0),
+                Vec3::new(-1.0, -1.0, 0.0),
+            ],
+            faces: vec![[0, 1, 2], [0, 3, 4]],
+        }
+    }
+
+    #[test]
+    fn a_bow_tie_vertex_is_counted_and_its_smaller_fan_dropped() {
+        let mut m = bowtie();
+        // A second face on the fan at x < 0 makes it the larger one.
+        m.vertices.push(Vec3::new(0.0, -1.0, 0.0));
+        m.faces.push([0, 4, 5]);
+        assert_eq!(m.nonmanifold_vertices(), 1);
+        let r = m.repaired();
+        assert_eq!(r.nonmanifold_vertices(), 0);
+        // The two faces of the larger fan, in order, at the same positions; no vertex repeated.
+        let tri = |m: &TriMesh, k: usize| m.faces[k].map(|i| m.vertices[i as usize]);
+        assert_eq!(r.faces.len(), 2);
+        assert_eq!(tri(&r, 0), tri(&m, 1));
+        assert_eq!(tri(&r, 1), tri(&m, 2));
+        assert_eq!(r.vertices.len(), 4);
+        // A closed tetrahedron has no bow-tie and is unchanged.
+        let t = TriMesh {
+            vertices: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z],
+            faces: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        };
+        assert_eq!(t.nonmanifold_vertices(), 0);
+        assert_eq!(t.repaired(), t);
+    }
+
+    #[test]
+    fn coincident_vertices_are_welded_and_degenerate_and_duplicate_faces_dropped() {
+        let m = TriMesh {
+            vertices: vec![
+                Vec3::ZERO,
+                Vec3::X,
+                Vec3::Y,
+                Vec3::X, // a copy of vertex 1
+                Vec3::new(2.0, 0.0, 0.0),
+            ],
+            faces: vec![
+                [0, 1, 2],
+                [0, 3, 2], // the first face again, through the copy
+                [1, 3, 2], // repeated vertex once welded
+                [0, 1, 4], // zero area: collinear
+            ],
+        };
+        let r = m.repaired();
+        assert_eq!(r.faces, vec![[0, 1, 2]]);
+        assert_eq!(r.vertices, vec![Vec3::ZERO, Vec3::X, Vec3::Y]);
+        let top = r.topology();
+        assert!(top.manifold && top.degenerate_faces == 0, "{top:?}");
+    }
+
+    #[test]
+    fn vertex_normals_point_out_of_a_counter_clockwise_solid() {
+        let t = TriMesh {
+            vertices: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z],
+            faces: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        };
+        let centre = Vec3::splat(0.25);
+        for (v, n) in t.vertices.iter().zip(t.vertex_normals()) {
+            assert!((n.length() - 1.0).abs() < 1e-6);
+            assert!(n.dot(*v - centre) > 0.0, "{v} {n}");
+        }
+    }
+}
