@@ -203,6 +203,11 @@ pub struct ImagingSpec {
     /// Keep only voxels that are local maxima along the bistatic range direction.
     #[serde(default = "default_true")]
     pub local_max: bool,
+    /// Drop each pair's detections in its direct-path zone: where the bistatic path exceeds the
+    /// transmitter–receiver baseline by less than the range profile's main-lobe half-width
+    /// (`imaging::detection::direct_path_guard_m`).
+    #[serde(default = "default_true")]
+    pub direct_path_guard: bool,
     /// Move each pair's detections that lie in the skirt of a stronger echo's point-spread
     /// function (below half its power, within the pair's resolution along the direction it
     /// resolves worst) to that echo's power centroid ([`super::centroid`]).

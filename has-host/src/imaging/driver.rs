@@ -47,9 +47,9 @@ use rayon::prelude::*;
 use super::centroid::skirt_to_centroid;
 use super::config::{Detection, ImagingScenario};
 use super::detection::{
-    alias_is_stronger, alias_window_m, coherence_factor, detected, effective_looks,
-    image_false_alarm_probability, layer_looks_per_voxel, layer_window, local_mean, pareto_factor,
-    CfarFactors,
+    alias_is_stronger, alias_window_m, coherence_factor, detected, direct_path_guard_m,
+    effective_looks, image_false_alarm_probability, layer_looks_per_voxel, layer_window,
+    local_mean, pareto_factor, CfarFactors,
 };
 use super::run::World;
 use super::sensors::{pair_resolution_m, PlanarArray, VirtualAperture};
@@ -1095,7 +1095,8 @@ fn dims_of(lo: Vec3, hi: Vec3, v: f32) -> [usize; 3] {
 
 /// The detected voxels of the fine image, optionally only those that are local maxima of `|I|`
 /// along the bistatic range gradient (the direction the pair resolves best) and not weaker than
-/// anything at their grating-lobe aliases (`imaging.alias_test`).
+/// anything at their grating-lobe aliases (`imaging.alias_test`), outside the pair's direct-path
+/// zone (`imaging.direct_path_guard`).
 fn extract_points(
     sc: &ImagingScenario,
     bricks: &[Brick],
@@ -1137,6 +1138,23 @@ fn extract_points(
     };
     let tx_c = geo.aperture.centre();
     let rx_c = geo.array.centre;
+    // The direct-path zone (`detection::direct_path_guard_m`), from every transmit position's
+    // baseline: the track's ends and centre bound it.
+    let guard = if sc.imaging.direct_path_guard {
+        let cells = sc
+            .window()
+            .ok()
+            .and_then(|w| w.main_lobe_half_width_cells())
+            .unwrap_or(1.0);
+        direct_path_guard_m(cells, bandwidth_hz as f64)
+    } else {
+        f32::NEG_INFINITY
+    };
+    let in_direct_zone = |p: Vec3| {
+        [geo.aperture.start, tx_c, geo.aperture.end]
+            .iter()
+            .any(|&t| has_dsp::geometry::bistatic_range(p, t, rx_c) - t.distance(rx_c) < guard)
+    };
     let mut points = Vec::new();
     let mut intensity = Vec::new();
     for b in bricks {
@@ -1147,7 +1165,7 @@ fn extract_points(
                 continue;
             }
             let p = g.voxel_world(i).unwrap_or(g.origin);
-            if !sc.in_region(p) {
+            if !sc.in_region(p) || in_direct_zone(p) {
                 continue;
             }
             if local_max {
