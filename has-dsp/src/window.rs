@@ -322,7 +322,9 @@ mod tests {
         }
     }
 
-    fn psl_db(w: &Window, n: usize, pad: usize) -> f64 {
+    /// `|profile|` of the `n`-subcarrier window zero-padded by `pad` (peak at index 0), and the
+    /// index of its first null (walked from the peak to the first minimum).
+    fn profile_and_first_null(w: &Window, n: usize, pad: usize) -> (Vec<f64>, usize) {
         let mut win = vec![0.0f32; n];
         w.fill_f32(&mut win).unwrap();
         let m = n * pad;
@@ -334,12 +336,17 @@ mod tests {
         }
         ifft_c32(&mut spec).unwrap();
         let mag: Vec<f64> = spec.iter().map(|z| z.norm() as f64).collect();
-        let peak = mag[0];
-        // Walk out of the main lobe (to the first null), then take the largest value.
         let mut i = 1;
         while i < m / 2 && mag[i + 1] < mag[i] {
             i += 1;
         }
+        (mag, i)
+    }
+
+    fn psl_db(w: &Window, n: usize, pad: usize) -> f64 {
+        // Out of the main lobe (to the first null), then the largest value.
+        let (mag, i) = profile_and_first_null(w, n, pad);
+        let (m, peak) = (mag.len(), mag[0]);
         let side = mag[i..m - i].iter().cloned().fold(0.0, f64::max);
         20.0 * (side / peak).log10()
     }
@@ -357,19 +364,7 @@ mod tests {
                 sll_db: -35.0,
             },
         ] {
-            let mut win = vec![0.0f32; n];
-            w.fill_f32(&mut win).unwrap();
-            let m = n * pad;
-            let mut spec = vec![Complex32::new(0.0, 0.0); m];
-            for (k, &wk) in win.iter().enumerate() {
-                let s = subcarrier_offset_hz(k, n, 1.0) as i64;
-                spec[s.rem_euclid(m as i64) as usize] = Complex32::new(wk, 0.0);
-            }
-            ifft_c32(&mut spec).unwrap();
-            let mut i = 1;
-            while i < m / 2 && spec[i + 1].norm() < spec[i].norm() {
-                i += 1;
-            }
+            let (_, i) = profile_and_first_null(&w, n, pad);
             let measured = i as f64 / pad as f64;
             let stated = w.main_lobe_half_width_cells().unwrap();
             assert!(
