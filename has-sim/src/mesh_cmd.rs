@@ -286,6 +286,9 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
             .context("--support-distance")?,
         None => mesh,
     };
+    // As `reconstruct` ([`has_host::mesh::reconstruct`]): repaired for other tools before
+    // small components are counted.
+    let mesh = mesh.repaired();
     let mesh = if a.min_component > 0.0 {
         mesh.remove_small_components(a.min_component)
             .context("--min-component")?
@@ -298,7 +301,8 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
     let density = (rule.is_none()
         && a.min_component == 0.0
         && a.clip_min.is_none()
-        && a.support_distance.is_none())
+        && a.support_distance.is_none()
+        && mesh.vertices.len() == out.mesh.vertices.len())
     .then_some(out.vertex_density.as_slice());
     write_mesh(&mesh, &a.out, a.ply.as_deref(), density)?;
     println!(

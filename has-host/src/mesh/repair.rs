@@ -35,68 +35,83 @@ const BOWTIE_ROUNDS: usize = 16;
 
 impl TriMesh {
     /// The faces around each vertex grouped into fans (faces linked through an edge at that
-    /// vertex): for each vertex, the fan label of each incident face, in `faces` order.
-    fn vertex_fans(&self) -> Vec<Vec<(u32, u32)>> {
-        // (vertex, face) incidences; per vertex, union-find over its incident faces by the
-        // other endpoint of the edges they share.
-        let mut around: Vec<Vec<u32>> = vec![Vec::new(); self.vertices.len()];
-        for (fi, f) in self.faces.iter().enumerate() {
+    /// vertex), in compressed rows: vertex `v`'s incident faces with their fan labels (0, 1, …
+    /// in order of first appearance) are `fans[offsets[v]..offsets[v + 1]]`, faces in `faces`
+    /// order. One flat array, so a mesh of millions of vertices costs 8 B per incidence.
+    fn vertex_fans(&self) -> (Vec<usize>, Vec<(u32, u32)>) {
+        let n = self.vertices.len();
+        let mut offsets = vec![0usize; n + 1];
+        for f in &self.faces {
             for &v in f {
-                around[v as usize].push(fi as u32);
+                offsets[v as usize + 1] += 1;
             }
         }
-        around
-            .iter()
-            .enumerate()
-            .map(|(v, faces)| {
-                let v = v as u32;
-                let mut parent: Vec<usize> = (0..faces.len()).collect();
-                fn find(p: &mut [usize], mut a: usize) -> usize {
-                    while p[a] != a {
-                        p[a] = p[p[a]];
-                        a = p[a];
+        for i in 0..n {
+            offsets[i + 1] += offsets[i];
+        }
+        let mut fans = vec![(0u32, 0u32); offsets[n]];
+        let mut fill = offsets.clone();
+        for (fi, f) in self.faces.iter().enumerate() {
+            for &v in f {
+                fans[fill[v as usize]] = (fi as u32, 0);
+                fill[v as usize] += 1;
+            }
+        }
+        // Per vertex, union-find over its incident faces: faces sharing the edge (v, w) are in
+        // one fan. Valences are small, so the other endpoints are searched linearly.
+        fn find(p: &mut [usize], mut a: usize) -> usize {
+            while p[a] != a {
+                p[a] = p[p[a]];
+                a = p[a];
+            }
+            a
+        }
+        let mut parent: Vec<usize> = Vec::new();
+        let mut by_other: Vec<(u32, usize)> = Vec::new();
+        let mut roots: Vec<usize> = Vec::new();
+        for v in 0..n {
+            let row = &mut fans[offsets[v]..offsets[v + 1]];
+            parent.clear();
+            parent.extend(0..row.len());
+            by_other.clear();
+            for (k, &(fi, _)) in row.iter().enumerate() {
+                for &w in &self.faces[fi as usize] {
+                    if w as usize == v {
+                        continue;
                     }
-                    a
-                }
-                // Faces sharing the edge (v, w) are in one fan.
-                let mut by_other: HashMap<u32, usize> = HashMap::new();
-                for (k, &fi) in faces.iter().enumerate() {
-                    for &w in &self.faces[fi as usize] {
-                        if w == v {
-                            continue;
-                        }
-                        match by_other.get(&w) {
-                            Some(&j) => {
-                                let (a, b) = (find(&mut parent, j), find(&mut parent, k));
-                                if a != b {
-                                    parent[a.max(b)] = a.min(b);
-                                }
-                            }
-                            None => {
-                                by_other.insert(w, k);
+                    match by_other.iter().find(|&&(o, _)| o == w) {
+                        Some(&(_, j)) => {
+                            let (a, b) = (find(&mut parent, j), find(&mut parent, k));
+                            if a != b {
+                                parent[a.max(b)] = a.min(b);
                             }
                         }
+                        None => by_other.push((w, k)),
                     }
                 }
-                let mut label: HashMap<usize, u32> = HashMap::new();
-                faces
-                    .iter()
-                    .enumerate()
-                    .map(|(k, &fi)| {
-                        let root = find(&mut parent, k);
-                        let next = label.len() as u32;
-                        (fi, *label.entry(root).or_insert(next))
-                    })
-                    .collect()
-            })
-            .collect()
+            }
+            roots.clear();
+            for (k, entry) in row.iter_mut().enumerate() {
+                let r = find(&mut parent, k);
+                let label = match roots.iter().position(|&x| x == r) {
+                    Some(l) => l,
+                    None => {
+                        roots.push(r);
+                        roots.len() - 1
+                    }
+                };
+                entry.1 = label as u32;
+            }
+        }
+        (offsets, fans)
     }
 
     /// Vertices whose incident faces form more than one fan (bow-ties, module docs).
     pub fn nonmanifold_vertices(&self) -> usize {
-        self.vertex_fans()
-            .iter()
-            .filter(|fans| fans.iter().any(|&(_, l)| l > 0))
+        let (offsets, fans) = self.vertex_fans();
+        offsets
+            .windows(2)
+            .filter(|r| fans[r[0]..r[1]].iter().any(|&(_, l)| l > 0))
             .count()
     }
 
@@ -147,7 +162,9 @@ impl TriMesh {
         for _ in 0..BOWTIE_ROUNDS {
             let mut drop = vec![false; out.faces.len()];
             let mut any = false;
-            for incid in out.vertex_fans() {
+            let (offsets, all) = out.vertex_fans();
+            for r in offsets.windows(2) {
+                let incid = &all[r[0]..r[1]];
                 let fans = incid
                     .iter()
                     .map(|&(_, l)| l as usize + 1)
@@ -160,7 +177,7 @@ impl TriMesh {
                 let mut size = vec![0usize; fans];
                 incid.iter().for_each(|&(_, l)| size[l as usize] += 1);
                 let keep = (0..fans).fold(0, |b, l| if size[l] > size[b] { l } else { b });
-                for &(fi, l) in &incid {
+                for &(fi, l) in incid {
                     if l as usize != keep {
                         drop[fi as usize] = true;
                     }
