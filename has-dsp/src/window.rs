@@ -210,17 +210,20 @@ mod tests {
     use super::*;
     use crate::fft::{ifft_c32, Complex32};
 
+    /// One window of each kind.
+    const KINDS: [Window; 3] = [
+        Window::Rectangular,
+        Window::Hann,
+        Window::Taylor {
+            nbar: 4,
+            sll_db: -35.0,
+        },
+    ];
+
     #[test]
     fn windows_peak_at_index_zero_and_are_symmetric_in_fft_order() {
         let n = 64;
-        for w in [
-            Window::Rectangular,
-            Window::Hann,
-            Window::Taylor {
-                nbar: 4,
-                sll_db: -35.0,
-            },
-        ] {
+        for w in KINDS {
             let mut b = vec![0.0f32; n];
             w.fill_f32(&mut b).unwrap();
             assert!((b[0] - 1.0).abs() < 1e-6, "{w:?} peak {}", b[0]);
@@ -356,14 +359,7 @@ mod tests {
     #[test]
     fn main_lobe_half_width_is_the_first_null_of_the_profile() {
         let (n, pad) = (256usize, 16usize);
-        for w in [
-            Window::Rectangular,
-            Window::Hann,
-            Window::Taylor {
-                nbar: 4,
-                sll_db: -35.0,
-            },
-        ] {
+        for w in KINDS {
             let (_, i) = profile_and_first_null(&w, n, pad);
             let measured = i as f64 / pad as f64;
             let stated = w.main_lobe_half_width_cells().unwrap();
