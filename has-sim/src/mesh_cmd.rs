@@ -9,7 +9,7 @@ use anyhow::{bail, Context};
 use glam::Vec3;
 use has_host::io::{ply, PlyData, PlyFormat};
 use has_host::mesh::{
-    estimate_normals, screened_poisson, trim, Orientation, PoissonParams, TriMesh, Trim,
+    estimate_normals, screened_poisson_weighted, trim, Orientation, PoissonParams, TriMesh, Trim,
 };
 use has_host::metrics::{CloudComparison, REPORT_THRESHOLDS_M};
 use has_host::Material;
@@ -104,6 +104,19 @@ pub struct MeshArgs {
     /// (needs the `poisson-crate` feature) and report its quality and time.
     #[arg(long)]
     pub compare_crate: bool,
+    /// Weight each sample by this vertex property of the input, raised to `--weight-power`: weak
+    /// samples carry less normal flux, screening and density
+    /// ([`has_host::mesh::screened_poisson_weighted`]). Default: `intensity` when the input has
+    /// it (as `reconstruct`'s `mesh_input.ply` and `fused.ply` do: the detection's amplitude
+    /// relative to its pair's peak), else every sample alike.
+    #[arg(long, conflicts_with = "unweighted")]
+    pub weights: Option<String>,
+    /// Weigh every sample alike even when the input has an `intensity` property.
+    #[arg(long)]
+    pub unweighted: bool,
+    /// Exponent applied to the weights (2 turns an amplitude into a power).
+    #[arg(long, default_value_t = 1.0)]
+    pub weight_power: f32,
     /// Write a JSON summary here.
     #[arg(long)]
     pub report: Option<PathBuf>,
@@ -267,7 +280,22 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         ..PoissonParams::default()
     };
     let t1 = Instant::now();
-    let out = screened_poisson(&points, &normals, &params)
+    let column = match (&a.weights, a.unweighted) {
+        (Some(name), _) => Some(input.property(name).with_context(|| {
+            format!(
+                "--weights: {} has no vertex property '{name}'",
+                a.input.display()
+            )
+        })?),
+        (None, false) => input.property("intensity"),
+        (None, true) => None,
+    };
+    if !(a.weight_power.is_finite() && a.weight_power >= 0.0) {
+        bail!("--weight-power: {} is not finite and >= 0", a.weight_power);
+    }
+    let weights: Option<Vec<f32>> =
+        column.map(|c| c.iter().map(|&w| w.powf(a.weight_power)).collect());
+    let out = screened_poisson_weighted(&points, &normals, weights.as_deref(), &params)
         .with_context(|| format!("{}: Poisson reconstruction", a.input.display()))?;
     let peak_rss_poisson = crate::resources::peak_rss_mib();
     let mesh = match rule {
@@ -324,6 +352,10 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         "points": points.len(),
         "params": params,
         "trim": rule,
+        "weights": column.map(|_| serde_json::json!({
+            "property": a.weights.as_deref().unwrap_or("intensity"),
+            "power": a.weight_power,
+        })),
         "mesh": {
             "vertices": mesh.vertex_count(),
             "faces": mesh.face_count(),

@@ -198,6 +198,9 @@ fn mesh_stage(
     // sensor that observed them are ghosts (see has_host::mesh::visibility) and are left out of
     // the final surface.
     let mut points = result.fused.points.clone();
+    // Each point's confidence: its detection's amplitude relative to its pair's peak. Weak
+    // detections (PSF skirts, sidelobes near the threshold) then carry less of the surface.
+    let mut weights = result.fused.intensity.clone();
     let mut sensors = sensors;
     let margin = VISIBILITY_MARGIN_VOXELS * sc.imaging.voxel_m;
     let mut ghosts = 0;
@@ -210,8 +213,13 @@ fn mesh_stage(
             },
             ..params.clone()
         };
-        let first = reconstruct(&points, Orientation::SensorSets(&sensors), &coarse)
-            .context("surface reconstruction (first pass)")?;
+        let first = reconstruct(
+            &points,
+            Some(&weights),
+            Orientation::SensorSets(&sensors),
+            &coarse,
+        )
+        .context("surface reconstruction (first pass)")?;
         let observers = imaging::observing_pairs(sc, &result.plans, &result.fused);
         let keep = visibility_consistent(&points, &observers, &first.mesh, margin)
             .context("visibility consistency")?;
@@ -220,12 +228,19 @@ fn mesh_stage(
         points.retain(|_| *k.next().unwrap_or(&true));
         let mut k = keep.iter();
         sensors.retain(|_| *k.next().unwrap_or(&true));
+        let mut k = keep.iter();
+        weights.retain(|_| *k.next().unwrap_or(&true));
     }
-    let rec = reconstruct(&points, Orientation::SensorSets(&sensors), &params)
-        .context("surface reconstruction")?;
+    let rec = reconstruct(
+        &points,
+        Some(&weights),
+        Orientation::SensorSets(&sensors),
+        &params,
+    )
+    .context("surface reconstruction")?;
     let seconds = t.elapsed().as_secs_f64();
-    // The oriented input of the mesher, so that `has-sim mesh mesh_input.ply` reproduces (and
-    // can vary) this stage without rerunning the imaging.
+    // The oriented and weighted input of the mesher, so that `has-sim mesh mesh_input.ply`
+    // reproduces (and can vary) this stage without rerunning the imaging.
     let n = &rec.normals;
     write_cloud(
         &args.out.join("mesh_input.ply"),
@@ -234,6 +249,7 @@ fn mesh_stage(
             ("nx", n.iter().map(|v| v.x).collect()),
             ("ny", n.iter().map(|v| v.y).collect()),
             ("nz", n.iter().map(|v| v.z).collect()),
+            ("intensity", weights.clone()),
         ],
     )?;
     let density = sc.imaging.truth_density_per_m2;
@@ -270,6 +286,7 @@ fn mesh_stage(
         json!(null)
     };
     m["trim_median_fraction"] = json!(args.mesh_trim_median);
+    m["sample_weights"] = json!("intensity");
     m["sample_density_per_m2"] = json!(density);
     m["seconds"] = json!(seconds);
     crate::mesh_cmd::write_mesh(

@@ -24,7 +24,7 @@ fn noisy_factory_mesh_beats_its_input_cloud() {
         trim: Some(Trim::MedianFraction(0.25)),
         ..ReconstructParams::default()
     };
-    let rec = reconstruct(&cloud, Orientation::Propagate, &params).unwrap();
+    let rec = reconstruct(&cloud, None, Orientation::Propagate, &params).unwrap();
     let c_cloud = CloudComparison::new(&cloud, &truth).unwrap();
     let s1 = rec.mesh.sample(25.0, 14).unwrap();
     let c_mesh = CloudComparison::new(&s1, &truth).unwrap();

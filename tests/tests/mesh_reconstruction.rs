@@ -27,7 +27,7 @@ fn noisy_sphere_reconstructs_within_a_cell_and_is_watertight() {
     let sigma = 0.01f32;
     let (pts, _) = noisy_sphere(6000, c, r, sigma, 1).unwrap();
     let sensors: Vec<Vec3> = pts.iter().map(|&p| c + (p - c) * 10.0).collect();
-    let rec = reconstruct(&pts, Orientation::Sensors(&sensors), &params(6)).unwrap();
+    let rec = reconstruct(&pts, None, Orientation::Sensors(&sensors), &params(6)).unwrap();
     let h = rec.poisson.cell_m;
     let top = rec.mesh.topology();
     let radii: Vec<f32> = rec
@@ -68,7 +68,7 @@ fn degenerate_inputs_are_clear_errors() {
     // Fewer points than neighbours.
     let (few, _) = noisy_sphere(10, Vec3::ZERO, 1.0, 0.0, 2).unwrap();
     assert!(matches!(
-        reconstruct(&few, Orientation::Propagate, &p),
+        reconstruct(&few, None, Orientation::Propagate, &p),
         Err(GeometryError::TooFew {
             field: "points",
             count: 10,
@@ -79,7 +79,7 @@ fn degenerate_inputs_are_clear_errors() {
     let flat: Vec<Vec3> = (0..400)
         .map(|i| Vec3::new((i % 20) as f32 * 0.1, (i / 20) as f32 * 0.1, 2.0))
         .collect();
-    let e = reconstruct(&flat, Orientation::Propagate, &p).unwrap_err();
+    let e = reconstruct(&flat, None, Orientation::Propagate, &p).unwrap_err();
     assert!(
         matches!(
             e,
@@ -94,7 +94,7 @@ fn degenerate_inputs_are_clear_errors() {
     // NaN.
     let (mut nan, _) = noisy_sphere(100, Vec3::ZERO, 1.0, 0.0, 3).unwrap();
     nan[42] = Vec3::new(0.0, f32::NAN, 0.0);
-    let e = reconstruct(&nan, Orientation::Propagate, &p).unwrap_err();
+    let e = reconstruct(&nan, None, Orientation::Propagate, &p).unwrap_err();
     assert!(
         matches!(
             e,
@@ -116,7 +116,7 @@ fn noisy_box_faces_are_recovered_and_mesh_is_watertight() {
     let sigma = 0.01f32;
     let clean = sample_triangles(&b.triangles, 1500.0, 3).unwrap();
     let pts = gaussian_jitter(&clean, sigma, 4).unwrap();
-    let rec = reconstruct(&pts, Orientation::Propagate, &params(6)).unwrap();
+    let rec = reconstruct(&pts, None, Orientation::Propagate, &params(6)).unwrap();
     let h = rec.poisson.cell_m;
     let top = rec.mesh.topology();
     let mut worst = 0f32;

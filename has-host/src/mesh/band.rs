@@ -320,15 +320,21 @@ impl Hierarchy {
     }
 
     /// Mean of χ on the finest level at the samples (the iso-value).
-    pub fn mean_at(&self, points: &[Vec3], fine_cell: &[[usize; 3]]) -> f32 {
+    pub fn mean_at(
+        &self,
+        points: &[Vec3],
+        weights: Option<&[f32]>,
+        fine_cell: &[[usize; 3]],
+    ) -> f32 {
         let (band, x) = self.bands.last().expect("at least one band");
         let g = band.grid;
-        let sum: f64 = points
+        let (sum, wsum) = points
             .par_iter()
             .zip(fine_cell)
-            .map(|(&p, c)| {
+            .enumerate()
+            .map(|(i, (&p, c))| {
                 let f = frac_in(&g, p, *c);
-                corner_weights(f)
+                let chi: f64 = corner_weights(f)
                     .iter()
                     .map(|(o, w)| {
                         let i = band
@@ -336,10 +342,15 @@ impl Hierarchy {
                             .expect("sample cells are active");
                         (w * x[i]) as f64
                     })
-                    .sum::<f64>()
+                    .sum();
+                let w = weights.map_or(1.0, |w| w[i]) as f64;
+                (w * chi, w)
             })
-            .sum();
-        (sum / points.len() as f64) as f32
+            .collect::<Vec<_>>()
+            .into_iter()
+            // Summed in sample order: the same bits at any thread count.
+            .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+        (sum / wsum) as f32
     }
 
     /// The closed iso-surface χ = iso of the finest level's field (module docs): `outside` is
@@ -871,7 +882,7 @@ mod tests {
             poisson: banded(6, 2, 5000),
             ..ReconstructParams::default()
         };
-        let rec = reconstruct(&pts, Orientation::Propagate, &params).unwrap();
+        let rec = reconstruct(&pts, None, Orientation::Propagate, &params).unwrap();
         assert!(rec.poisson.levels[3].unknowns < rec.poisson.levels[3].dims.iter().product());
         let h = rec.poisson.cell_m;
         let mut worst = 0f32;

@@ -25,8 +25,8 @@ use crate::metrics;
 
 pub use normals::{estimate_normals, Orientation};
 pub use poisson::{
-    depth_for_cell, screened_poisson, support_density, trim, trim_by_density, PoissonOutput,
-    PoissonParams, Trim,
+    depth_for_cell, screened_poisson, screened_poisson_weighted, support_density, trim,
+    trim_by_density, PoissonOutput, PoissonParams, Trim,
 };
 pub use visibility::visibility_consistent;
 
@@ -391,19 +391,21 @@ pub struct Reconstruction {
 }
 
 /// Normals → screened Poisson → optional density trim, clip and small-component removal, on an
-/// unoriented cloud.
+/// unoriented cloud. `weights` are the samples' confidences (e.g. a detection's amplitude,
+/// [`screened_poisson_weighted`]); `None` weighs every sample alike.
 ///
 /// # Errors
-/// As [`estimate_normals`], [`screened_poisson`] and [`trim()`].
+/// As [`estimate_normals`], [`screened_poisson_weighted`] and [`trim()`].
 pub fn reconstruct(
     points: &[Vec3],
+    weights: Option<&[f32]>,
     orientation: Orientation<'_>,
     params: &ReconstructParams,
 ) -> Result<Reconstruction, GeometryError> {
     let t0 = std::time::Instant::now();
     let normals = estimate_normals(points, params.normal_k, orientation)?;
     let normals_s = t0.elapsed().as_secs_f64();
-    let poisson = screened_poisson(points, &normals, &params.poisson)?;
+    let poisson = screened_poisson_weighted(points, &normals, weights, &params.poisson)?;
     let mesh = match params.trim {
         Some(rule) => trim(&poisson.mesh, &poisson.vertex_density, rule)?,
         None => poisson.mesh.clone(),

@@ -656,8 +656,32 @@ pub fn screened_poisson(
     normals: &[Vec3],
     params: &PoissonParams,
 ) -> Result<PoissonOutput, GeometryError> {
+    screened_poisson_weighted(points, normals, None, params)
+}
+
+/// [`screened_poisson`] with a confidence per sample (K&H's weighted samples): sample p's
+/// normal flux and screening weight are scaled by wₚ/w̄ (w̄ the mean weight), the iso-value is
+/// the w-weighted mean of χ at the samples and the vertex densities count each of the k nearest
+/// samples as wᵢ/w̄. A cluster of weak samples then lifts χ by less than the strong surface
+/// around it does and leaves no bubble of its own. `None` (or equal weights) is
+/// [`screened_poisson`].
+///
+/// # Errors
+/// As [`screened_poisson`]; `weights` of another length than `points`, or a weight that is
+/// negative or not finite, or all weights zero.
+pub fn screened_poisson_weighted(
+    points: &[Vec3],
+    normals: &[Vec3],
+    weights: Option<&[f32]>,
+    params: &PoissonParams,
+) -> Result<PoissonOutput, GeometryError> {
     check_params(params)?;
     check_points("points", points)?;
+    let rel_weights = match weights {
+        None => None,
+        Some(w) => Some(relative_weights(w, points.len())?),
+    };
+    let rel_weights = rel_weights.as_deref();
     let needed = (params.area_k + 1).max(4);
     if points.len() < needed {
         return Err(GeometryError::TooFew {
@@ -743,6 +767,10 @@ pub fn screened_poisson(
             (std::f32::consts::PI * r2 / k as f32).max(min_area)
         })
         .collect();
+    let area: Vec<f32> = match rel_weights {
+        Some(w) => area.iter().zip(w).map(|(a, w)| a * w).collect(),
+        None => area,
+    };
     // Each sample's cell on the finest grid (banded levels derive theirs by halving).
     let finest = Grid {
         dims: cells.map(|c| c + 1),
@@ -810,19 +838,20 @@ pub fn screened_poisson(
     let t_ex = Instant::now();
     let (mesh, iso) = match &hier {
         Some(hier) => {
-            let iso = hier.mean_at(points, &fine_cell);
+            let iso = hier.mean_at(points, rel_weights, &fine_cell);
             let outside = hier.max_value().max(iso) + 1.0;
             (hier.extract(iso, outside), iso)
         }
         None => {
             let (grid, chi) = prev.as_ref().expect("at least one level");
-            dense_surface(grid, chi, points)
+            dense_surface(grid, chi, points, rel_weights)
         }
     };
     drop(hier);
     drop(prev);
     let vertex_density = support_density_with(
         &index,
+        rel_weights,
         points.len(),
         &mesh.vertices,
         params.density_k,
@@ -841,14 +870,39 @@ pub fn screened_poisson(
     })
 }
 
-/// The closed iso-surface of a full-grid solution at the mean of χ over the samples, and
-/// that iso-value.
-fn dense_surface(grid: &Grid, chi: &[f32], points: &[Vec3]) -> (TriMesh, f32) {
-    let iso = (points
+/// Each weight divided by the mean weight (checked: one per point, finite, ≥ 0, not all 0).
+fn relative_weights(w: &[f32], n: usize) -> Result<Vec<f32>, GeometryError> {
+    if w.len() != n {
+        return Err(bad("weights", w.len() as f64, "one weight per point"));
+    }
+    if let Some(&x) = w.iter().find(|x| !(x.is_finite() && **x >= 0.0)) {
+        return Err(bad("weights", x as f64, "finite and >= 0"));
+    }
+    let mean = w.iter().map(|&x| x as f64).sum::<f64>() / n as f64;
+    if mean <= 0.0 {
+        return Err(bad("weights", 0.0, "not all zero"));
+    }
+    Ok(w.iter().map(|&x| (x as f64 / mean) as f32).collect())
+}
+
+/// The closed iso-surface of a full-grid solution at the (weighted) mean of χ over the samples,
+/// and that iso-value.
+fn dense_surface(
+    grid: &Grid,
+    chi: &[f32],
+    points: &[Vec3],
+    weights: Option<&[f32]>,
+) -> (TriMesh, f32) {
+    let weight = |i: usize| weights.map_or(1.0, |w| w[i]) as f64;
+    let (sum, wsum) = points
         .par_iter()
-        .map(|&p| grid.interpolate(chi, p) as f64)
-        .sum::<f64>()
-        / points.len() as f64) as f32;
+        .enumerate()
+        .map(|(i, &p)| (weight(i) * grid.interpolate(chi, p) as f64, weight(i)))
+        .collect::<Vec<_>>()
+        .into_iter()
+        // Summed in sample order: the same bits at any thread count.
+        .fold((0.0, 0.0), |a, b| (a.0 + b.0, a.1 + b.1));
+    let iso = (sum / wsum) as f32;
     let max_chi = chi.iter().copied().fold(f32::MIN, f32::max);
     let outside = max_chi.max(iso) + 1.0;
     let field = GridField {
@@ -877,6 +931,7 @@ pub fn support_density(
     let index = PointIndex::new("points", points)?;
     Ok(support_density_with(
         &index,
+        None,
         points.len(),
         vertices,
         k,
@@ -886,6 +941,7 @@ pub fn support_density(
 
 fn support_density_with(
     index: &PointIndex,
+    weights: Option<&[f32]>,
     n_points: usize,
     vertices: &[Vec3],
     k: usize,
@@ -894,8 +950,13 @@ fn support_density_with(
     vertices
         .par_iter()
         .map(|&v| {
-            let r2 = index.knn(v, k).last().map(|x| x.1).unwrap_or(0.0);
-            k.min(n_points) as f32 / (std::f32::consts::PI * r2.max(min_area))
+            let nb = index.knn(v, k);
+            let r2 = nb.last().map(|x| x.1).unwrap_or(0.0);
+            let count = match weights {
+                Some(w) => nb.iter().map(|x| w[x.0 as usize]).sum::<f32>(),
+                None => k.min(n_points) as f32,
+            };
+            count / (std::f32::consts::PI * r2.max(min_area))
         })
         .collect()
 }
@@ -1038,5 +1099,82 @@ mod tests {
         assert_eq!(trim(&m, &d, Trim::MedianFraction(0.5)).unwrap(), t);
         assert!(trim(&m, &d, Trim::MedianFraction(0.0)).is_err());
         assert!(trim(&m, &d, Trim::MedianFraction(1.5)).is_err());
+    }
+
+    /// Fibonacci sphere of `n` samples, radius `r`, centre `c`, with outward normals.
+    fn sphere(n: usize, r: f32, c: Vec3) -> (Vec<Vec3>, Vec<Vec3>) {
+        let g = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+        (0..n)
+            .map(|i| {
+                let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+                let t = g * i as f32;
+                let u = Vec3::new(
+                    (1.0 - z * z).sqrt() * t.cos(),
+                    (1.0 - z * z).sqrt() * t.sin(),
+                    z,
+                );
+                (c + r * u, u)
+            })
+            .unzip()
+    }
+
+    #[test]
+    fn equal_weights_are_the_unweighted_reconstruction() {
+        let (pts, nrm) = sphere(600, 2.0, Vec3::new(1.0, 2.0, 3.0));
+        let p = PoissonParams {
+            depth: 5,
+            ..PoissonParams::default()
+        };
+        let plain = screened_poisson(&pts, &nrm, &p).unwrap();
+        let w = vec![2.5f32; pts.len()];
+        let same = screened_poisson_weighted(&pts, &nrm, Some(&w), &p).unwrap();
+        assert_eq!(same.mesh, plain.mesh);
+        assert_eq!(same.iso_value.to_bits(), plain.iso_value.to_bits());
+        assert_eq!(same.vertex_density, plain.vertex_density);
+        let mut bad = w.clone();
+        bad[3] = -1.0;
+        assert!(screened_poisson_weighted(&pts, &nrm, Some(&bad), &p).is_err());
+        bad[3] = f32::NAN;
+        assert!(screened_poisson_weighted(&pts, &nrm, Some(&bad), &p).is_err());
+        assert!(screened_poisson_weighted(&pts, &nrm, Some(&w[1..]), &p).is_err());
+        assert!(screened_poisson_weighted(&pts, &nrm, Some(&vec![0.0; pts.len()]), &p).is_err());
+    }
+
+    #[test]
+    fn a_cluster_of_weak_samples_leaves_no_surface_of_its_own() {
+        // A 2 m sphere of confident samples and, 4 m from its surface, a 0.5 m ball of samples
+        // (a sidelobe's cluster). Weighted alike, the ball is meshed; at 2 % of the confident
+        // samples' weight it lifts χ by far less than the iso-value and no vertex comes near it.
+        let c = Vec3::new(1.0, 2.0, 3.0);
+        let (mut pts, mut nrm) = sphere(2000, 2.0, c);
+        let strong = pts.len();
+        let ghost = c + Vec3::new(6.5, 0.0, 0.0);
+        let (gp, gn) = sphere(150, 0.5, ghost);
+        pts.extend(gp);
+        nrm.extend(gn);
+        let p = PoissonParams {
+            depth: 6,
+            ..PoissonParams::default()
+        };
+        let near_ghost = |m: &TriMesh| {
+            m.vertices
+                .iter()
+                .filter(|v| v.distance(ghost) < 1.0)
+                .count()
+        };
+        let near_sphere = |m: &TriMesh| {
+            m.vertices
+                .iter()
+                .filter(|v| (v.distance(c) - 2.0).abs() < 0.3)
+                .count()
+        };
+        let plain = screened_poisson(&pts, &nrm, &p).unwrap();
+        assert!(near_ghost(&plain.mesh) > 0, "the unweighted ball is meshed");
+        let w: Vec<f32> = (0..pts.len())
+            .map(|i| if i < strong { 1.0 } else { 0.02 })
+            .collect();
+        let weighted = screened_poisson_weighted(&pts, &nrm, Some(&w), &p).unwrap();
+        assert_eq!(near_ghost(&weighted.mesh), 0);
+        assert!(near_sphere(&weighted.mesh) >= near_sphere(&plain.mesh) * 9 / 10);
     }
 }
