@@ -9,7 +9,8 @@ use anyhow::{bail, Context};
 use glam::Vec3;
 use has_host::io::{ply, PlyData, PlyFormat};
 use has_host::mesh::{
-    estimate_normals, screened_poisson_weighted, trim, Orientation, PoissonParams, TriMesh, Trim,
+    estimate_normals, reconstruct_oriented, Orientation, PoissonParams, ReconstructParams, TriMesh,
+    Trim,
 };
 use has_host::metrics::{CloudComparison, REPORT_THRESHOLDS_M};
 use has_host::Material;
@@ -295,34 +296,24 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
     }
     let weights: Option<Vec<f32>> =
         column.map(|c| c.iter().map(|&w| w.powf(a.weight_power)).collect());
-    let out = screened_poisson_weighted(&points, &normals, weights.as_deref(), &params)
-        .with_context(|| format!("{}: Poisson reconstruction", a.input.display()))?;
+    let clip_box = match (&a.clip_min, &a.clip_max) {
+        (Some(lo), Some(hi)) => Some((Vec3::from_slice(lo), Vec3::from_slice(hi))),
+        _ => None,
+    };
+    let rp = ReconstructParams {
+        normal_k: a.k,
+        poisson: params.clone(),
+        trim: rule,
+        clip_box,
+        support_distance_m: a.support_distance,
+        min_component_fraction: (a.min_component > 0.0).then_some(a.min_component),
+    };
+    // The same stages, in the same order, as `reconstruct`'s mesh
+    // ([`has_host::mesh::reconstruct_oriented`]).
+    let rec = reconstruct_oriented(&points, normals, weights.as_deref(), &rp)
+        .with_context(|| format!("{}: surface reconstruction", a.input.display()))?;
     let peak_rss_poisson = crate::resources::peak_rss_mib();
-    let mesh = match rule {
-        Some(r) => trim(&out.mesh, &out.vertex_density, r)?,
-        None => out.mesh.clone(),
-    };
-    let mesh = match (&a.clip_min, &a.clip_max) {
-        (Some(lo), Some(hi)) => mesh
-            .clip_to_box(Vec3::from_slice(lo), Vec3::from_slice(hi))
-            .context("--clip-min/--clip-max")?,
-        _ => mesh,
-    };
-    let mesh = match a.support_distance {
-        Some(d) => mesh
-            .clip_to_support(&points, d)
-            .context("--support-distance")?,
-        None => mesh,
-    };
-    // As `reconstruct` ([`has_host::mesh::reconstruct`]): repaired for other tools before
-    // small components are counted.
-    let mesh = mesh.repaired();
-    let mesh = if a.min_component > 0.0 {
-        mesh.remove_small_components(a.min_component)
-            .context("--min-component")?
-    } else {
-        mesh
-    };
+    let (mesh, out, normals) = (rec.mesh, rec.poisson, rec.normals);
     let poisson_s = t1.elapsed().as_secs_f64();
     let top = mesh.topology();
     // Densities follow the vertices only for the untrimmed mesh.

@@ -130,3 +130,66 @@ fn mesh_command_rejects_bad_input_with_a_named_error() {
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(!obj.exists());
 }
+
+#[test]
+fn an_intensity_property_weights_the_samples_unless_told_otherwise() {
+    // A sphere of confident samples and a small ball of weak ones 3 m outside it (a sidelobe's
+    // cluster): weighted by the cloud's `intensity`, as `reconstruct`'s `mesh_input.ply` is, the
+    // ball leaves no surface; `--unweighted` meshes it; a missing `--weights` property is named.
+    let d = tmp("weights");
+    let mut pts = sphere(3000);
+    let strong = pts.len();
+    let ghost = Vec3::new(8.5, 0.0, 0.0);
+    pts.extend(sphere(200).iter().map(|&p| ghost + p * 0.1));
+    let intensity: Vec<f32> = (0..pts.len())
+        .map(|i| if i < strong { 0.8 } else { 0.01 })
+        .collect();
+    let cloud = d.join("cloud.ply");
+    let data = PlyData::from_points(pts).with_property("intensity", intensity);
+    ply::write_ply(&cloud, &data, PlyFormat::BinaryLittleEndian).unwrap();
+    let run = |extra: &[&str]| {
+        let obj = d.join("m.obj");
+        let mesh_ply = d.join("m.ply");
+        let report = d.join("r.json");
+        let mut args = vec![
+            "mesh",
+            cloud.to_str().unwrap(),
+            "--out",
+            obj.to_str().unwrap(),
+            "--depth",
+            "6",
+            "--ply",
+            mesh_ply.to_str().unwrap(),
+            "--report",
+            report.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let (ok, out, err) = has_sim(&args);
+        assert!(ok, "{out}\n{err}");
+        let r: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(&report).unwrap()).unwrap();
+        let mesh = ply::read_ply(&mesh_ply).unwrap();
+        let near = mesh
+            .vertices
+            .iter()
+            .filter(|v| v.distance(ghost) < 1.0)
+            .count();
+        (r, near)
+    };
+    let (r, near) = run(&[]);
+    assert_eq!(r["weights"]["property"], "intensity");
+    assert_eq!(near, 0, "weighted: no vertex near the weak ball");
+    let (r, near) = run(&["--unweighted"]);
+    assert!(r["weights"].is_null());
+    assert!(near > 0, "unweighted: the weak ball is meshed");
+    let (ok, _, err) = has_sim(&[
+        "mesh",
+        cloud.to_str().unwrap(),
+        "--out",
+        d.join("x.obj").to_str().unwrap(),
+        "--weights",
+        "snr",
+    ]);
+    assert!(!ok && err.contains("snr"), "{err}");
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+}

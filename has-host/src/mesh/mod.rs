@@ -391,11 +391,10 @@ pub struct Reconstruction {
 }
 
 /// Normals → screened Poisson → optional density trim, clip and small-component removal, on an
-/// unoriented cloud. `weights` are the samples' confidences (e.g. a detection's amplitude,
-/// [`screened_poisson_weighted`]); `None` weighs every sample alike.
+/// unoriented cloud: [`estimate_normals`], then [`reconstruct_oriented`].
 ///
 /// # Errors
-/// As [`estimate_normals`], [`screened_poisson_weighted`] and [`trim()`].
+/// As [`estimate_normals`] and [`reconstruct_oriented`].
 pub fn reconstruct(
     points: &[Vec3],
     weights: Option<&[f32]>,
@@ -405,6 +404,25 @@ pub fn reconstruct(
     let t0 = std::time::Instant::now();
     let normals = estimate_normals(points, params.normal_k, orientation)?;
     let normals_s = t0.elapsed().as_secs_f64();
+    let mut rec = reconstruct_oriented(points, normals, weights, params)?;
+    rec.normals_s = normals_s;
+    Ok(rec)
+}
+
+/// Screened Poisson → optional density trim, box clip, support clip, [`TriMesh::repaired`] and
+/// small-component removal, on an oriented cloud (one normal per point; `params.normal_k` is
+/// not used). `weights` are the samples' confidences (e.g. a detection's amplitude,
+/// [`screened_poisson_weighted`]); `None` weighs every sample alike.
+///
+/// # Errors
+/// As [`screened_poisson_weighted`], [`trim()`], [`TriMesh::clip_to_box`],
+/// [`TriMesh::clip_to_support`] and [`TriMesh::remove_small_components`].
+pub fn reconstruct_oriented(
+    points: &[Vec3],
+    normals: Vec<Vec3>,
+    weights: Option<&[f32]>,
+    params: &ReconstructParams,
+) -> Result<Reconstruction, GeometryError> {
     let poisson = screened_poisson_weighted(points, &normals, weights, &params.poisson)?;
     let mesh = match params.trim {
         Some(rule) => trim(&poisson.mesh, &poisson.vertex_density, rule)?,
@@ -430,7 +448,7 @@ pub fn reconstruct(
         mesh,
         poisson,
         normals,
-        normals_s,
+        normals_s: 0.0,
     })
 }
 
