@@ -20,22 +20,6 @@ use crate::plot::{self, View};
 /// The bundled default scenario.
 pub const FACTORY_TOML: &str = include_str!("../../fixtures/factory.toml");
 
-/// Connected components of the mesh below this fraction of the largest one's area are dropped
-/// (blobs around ghost points).
-pub const MESH_MIN_COMPONENT_FRACTION: f32 = 0.02;
-/// Margin of the visibility-consistency filter, in imaging voxels: a leg counts as blocked only
-/// if the first-pass surface is hit this far before the point (the cloud is a shell about a
-/// resolution cell thick).
-pub const VISIBILITY_MARGIN_VOXELS: f32 = 4.0;
-/// The Poisson grid's finest cell, in imaging voxels. The cloud samples each surface on the
-/// voxel lattice, so half a voxel is the grid that places the indicator's jump between two
-/// samples (a cell of one voxel, or one that followed the cloud's extent to anywhere between half
-/// and one voxel, measured worse on the suite, quick: mesh √CD 0.979–1.169 m against
-/// 0.956–1.167 m).
-pub const MESH_CELL_PER_VOXEL: f32 = 0.5;
-/// Default density trim, fraction of the median vertex support density.
-pub const DEFAULT_MESH_TRIM_MEDIAN: f32 = 0.25;
-
 /// Options of `reconstruct`.
 #[derive(Args)]
 pub struct ReconstructArgs {
@@ -59,7 +43,7 @@ pub struct ReconstructArgs {
     #[arg(long)]
     pub mesh_depth: Option<u32>,
     /// Density trim of the mesh, fraction of the median vertex support density.
-    #[arg(long, default_value_t = DEFAULT_MESH_TRIM_MEDIAN)]
+    #[arg(long, default_value_t = imaging::surface::DEFAULT_TRIM_MEDIAN)]
     pub mesh_trim_median: f32,
     /// Before meshing, remove the fused points that a coarser first-pass surface hides from every
     /// sensor that observed them (ghosts; has_host::mesh::visibility). Off by default: on the
@@ -82,7 +66,7 @@ impl ReconstructArgs {
             fixed_point: false,
             raw_ofdm: false,
             mesh_depth: None,
-            mesh_trim_median: DEFAULT_MESH_TRIM_MEDIAN,
+            mesh_trim_median: imaging::surface::DEFAULT_TRIM_MEDIAN,
             visibility_filter: false,
             no_mesh: false,
         }
@@ -159,92 +143,19 @@ fn mesh_stage(
     result: &imaging::RunResult,
     observable: &[bool],
 ) -> Result<serde_json::Value> {
-    use has_host::mesh::{
-        depth_for_cell, reconstruct, visibility_consistent, Orientation, PoissonParams,
-        ReconstructParams, Trim,
+    let opts = imaging::SurfaceOptions {
+        depth: args.mesh_depth,
+        trim_median: args.mesh_trim_median,
+        visibility_filter: args.visibility_filter,
     };
-    let t = Instant::now();
-    let sensors = imaging::observing_sensors(sc, &result.plans, &result.fused);
-    let padding = PoissonParams::default().padding;
-    let depth = args.mesh_depth.unwrap_or_else(|| {
-        depth_for_cell(
-            &result.fused.points,
-            padding,
-            MESH_CELL_PER_VOXEL * sc.imaging.voxel_m,
-        )
-    });
-    let region = (
-        Vec3::from_array(sc.imaging.region_min),
-        Vec3::from_array(sc.imaging.region_max),
-    );
-    let params = ReconstructParams {
-        poisson: PoissonParams {
-            depth,
-            // Without an explicit depth the cell is fixed in metres (MESH_CELL_PER_VOXEL),
-            // whatever the cloud's extent.
-            cell_m: args
-                .mesh_depth
-                .is_none()
-                .then_some(MESH_CELL_PER_VOXEL * sc.imaging.voxel_m),
-            ..PoissonParams::default()
-        },
-        trim: Some(Trim::MedianFraction(args.mesh_trim_median)),
-        clip_box: Some(region),
-        support_distance_m: Some(imaging::support_distance_m(sc, &result.plans)),
-        min_component_fraction: Some(MESH_MIN_COMPONENT_FRACTION),
-        ..ReconstructParams::default()
-    };
-    // Visibility consistency: a first, one level coarser surface; points it hides from every
-    // sensor that observed them are ghosts (see has_host::mesh::visibility) and are left out of
-    // the final surface.
-    let mut points = result.fused.points.clone();
-    // Each point's confidence: its detection's amplitude relative to its pair's peak. Weak
-    // detections (PSF skirts, sidelobes near the threshold) then carry less of the surface.
-    let mut weights = result.fused.intensity.clone();
-    let mut sensors = sensors;
-    let margin = VISIBILITY_MARGIN_VOXELS * sc.imaging.voxel_m;
-    let mut ghosts = 0;
-    if args.visibility_filter {
-        let coarse = ReconstructParams {
-            poisson: PoissonParams {
-                depth: depth.saturating_sub(1).max(1),
-                cell_m: params.poisson.cell_m.map(|c| 2.0 * c),
-                ..params.poisson.clone()
-            },
-            ..params.clone()
-        };
-        let first = reconstruct(
-            &points,
-            Some(&weights),
-            Orientation::SensorSets(&sensors),
-            &coarse,
-        )
-        .context("surface reconstruction (first pass)")?;
-        let observers = imaging::observing_pairs(sc, &result.plans, &result.fused);
-        let keep = visibility_consistent(&points, &observers, &first.mesh, margin)
-            .context("visibility consistency")?;
-        ghosts = keep.iter().filter(|&&k| !k).count();
-        let mut k = keep.iter();
-        points.retain(|_| *k.next().unwrap_or(&true));
-        let mut k = keep.iter();
-        sensors.retain(|_| *k.next().unwrap_or(&true));
-        let mut k = keep.iter();
-        weights.retain(|_| *k.next().unwrap_or(&true));
-    }
-    let rec = reconstruct(
-        &points,
-        Some(&weights),
-        Orientation::SensorSets(&sensors),
-        &params,
-    )
-    .context("surface reconstruction")?;
-    let seconds = t.elapsed().as_secs_f64();
+    let surf = imaging::surface(sc, result, &opts).context("surface reconstruction")?;
+    let (points, weights, seconds) = (&surf.points, &surf.weights, surf.seconds);
     // The oriented and weighted input of the mesher, so that `has-sim mesh mesh_input.ply`
     // reproduces (and can vary) this stage without rerunning the imaging.
-    let n = &rec.normals;
+    let n = &surf.normals;
     write_cloud(
         &args.out.join("mesh_input.ply"),
-        &points,
+        points,
         vec![
             ("nx", n.iter().map(|v| v.x).collect()),
             ("ny", n.iter().map(|v| v.y).collect()),
@@ -253,7 +164,7 @@ fn mesh_stage(
         ],
     )?;
     let density = sc.imaging.truth_density_per_m2;
-    let samples = rec.mesh.sample(density, sc.imaging.seed.wrapping_add(3))?;
+    let samples = surf.mesh.sample(density, sc.imaging.seed.wrapping_add(3))?;
     let cmp = CloudComparison::new(&samples, &world.truth)?;
     let mut m = metrics_json(&cmp, samples.len(), world.truth.len())?;
     m["observable_truth"] = observable_json(&cmp, observable);
@@ -261,7 +172,7 @@ fn mesh_stage(
     // the truth's: what Chamfer and F-score average away (a sheet over the ground, ghost walls).
     let area = has_host::metrics::surface_area_metrics(
         &samples,
-        rec.mesh.area_m2(),
+        surf.mesh.area_m2(),
         &world.truth,
         &world.truth_triangles,
         1.5,
@@ -270,27 +181,23 @@ fn mesh_stage(
     m["area_ratio"] = json!(area.area_ratio);
     m["area_m2"] = json!(area.area_m2);
     m["truth_area_m2"] = json!(area.truth_area_m2);
-    let topo = rec.mesh.topology();
-    m["vertices"] = json!(rec.mesh.vertices.len());
-    m["faces"] = json!(rec.mesh.faces.len());
+    let topo = surf.mesh.topology();
+    m["vertices"] = json!(surf.mesh.vertices.len());
+    m["faces"] = json!(surf.mesh.faces.len());
     m["watertight"] = json!(topo.watertight);
     m["manifold"] = json!(topo.manifold);
-    m["depth"] = json!(depth);
-    m["cell_m"] = json!(rec.poisson.cell_m);
-    m["clip_box"] = json!([region.0.to_array(), region.1.to_array()]);
-    m["support_distance_m"] = json!(params.support_distance_m);
-    m["min_component_fraction"] = json!(MESH_MIN_COMPONENT_FRACTION);
-    m["visibility_filter"] = if args.visibility_filter {
-        json!({"margin_m": margin, "removed_points": ghosts, "input_points": result.fused.points.len()})
-    } else {
-        json!(null)
-    };
+    m["depth"] = json!(surf.depth);
+    m["cell_m"] = json!(surf.cell_m);
+    m["clip_box"] = json!([surf.clip_box.0.to_array(), surf.clip_box.1.to_array()]);
+    m["support_distance_m"] = json!(Some(surf.support_distance_m));
+    m["min_component_fraction"] = json!(imaging::surface::MIN_COMPONENT_FRACTION);
+    m["visibility_filter"] = json!(surf.visibility);
     m["trim_median_fraction"] = json!(args.mesh_trim_median);
     m["sample_weights"] = json!("intensity");
     m["sample_density_per_m2"] = json!(density);
     m["seconds"] = json!(seconds);
     crate::mesh_cmd::write_mesh(
-        &rec.mesh,
+        &surf.mesh,
         &args.out.join("mesh.obj"),
         Some(&args.out.join("mesh.ply")),
         None,
@@ -310,8 +217,8 @@ fn mesh_stage(
     }
     println!(
         "mesh: {} vertices, {} faces, √CD {:.3} m, F-score(1.5 m) {:.1}  [paper: 0.96 m, 96]",
-        rec.mesh.vertices.len(),
-        rec.mesh.faces.len(),
+        surf.mesh.vertices.len(),
+        surf.mesh.faces.len(),
         cmp.sqrt_chamfer_m(),
         cmp.fscore(1.5)?.fscore_pct
     );

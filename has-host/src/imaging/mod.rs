@@ -8,6 +8,7 @@ pub mod detection;
 pub mod driver;
 pub mod run;
 pub mod sensors;
+pub mod surface;
 
 pub use config::{Detection, ImagingScenario, ScenarioError};
 pub use driver::{image_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions};
@@ -17,3 +18,4 @@ pub use run::{
     support_distance_m, FusedCloud, RunError, RunResult, Terrain, World,
 };
 pub use sensors::{nyquist_spacing_m, pair_resolution_m, PlanarArray, VirtualAperture};
+pub use surface::{surface, Surface, SurfaceOptions};
