@@ -192,6 +192,7 @@ fn mesh_stage(
     m["support_distance_m"] = json!(Some(surf.support_distance_m));
     m["min_component_fraction"] = json!(imaging::surface::MIN_COMPONENT_FRACTION);
     m["visibility_filter"] = json!(surf.visibility);
+    m["facing_away_points"] = json!(surf.facing_away);
     m["trim_median_fraction"] = json!(args.mesh_trim_median);
     m["sample_weights"] = json!("intensity");
     m["sample_density_per_m2"] = json!(density);

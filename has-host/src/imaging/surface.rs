@@ -14,6 +14,13 @@
 //!   extrapolation);
 //! - repaired for other tools, then connected components under [`MIN_COMPONENT_FRACTION`] of the
 //!   largest one's area dropped;
+//! - a point whose local surface (its PCA normal, oriented toward its sensors) faces away from
+//!   the transmitter or the receiver of every pair that detected it is left out of the mesher's
+//!   input ([`faces_a_pair`]): a Lambertian facet echoes to a pair only when it faces both of
+//!   its ends (`cos θ_tx·cos θ_rx > 0`), so such a point is not a facet its pairs saw but the
+//!   smear of a neighbouring echo (a roof's image under a vehicle's poor vertical resolution,
+//!   whose normal then points down at the vehicle and closes a slab over the roof). It stays in
+//!   the cloud; only the surface does not follow it;
 //! - optionally ([`SurfaceOptions::visibility_filter`]) points that a one level coarser first
 //!   surface hides from every pair that observed them are left out
 //!   ([`crate::mesh::visibility_consistent`], margin [`VISIBILITY_MARGIN_VOXELS`]).
@@ -28,8 +35,8 @@ use super::config::ImagingScenario;
 use super::run::{observing_pairs, observing_sensors, support_distance_m, RunResult};
 use crate::knn::GeometryError;
 use crate::mesh::{
-    depth_for_cell, reconstruct, visibility_consistent, Orientation, PoissonParams,
-    ReconstructParams, TriMesh, Trim,
+    depth_for_cell, estimate_normals, reconstruct, reconstruct_oriented, visibility_consistent,
+    Orientation, PoissonParams, ReconstructParams, TriMesh, Trim,
 };
 
 /// Connected components of the mesh below this fraction of the largest one's area are dropped
@@ -103,6 +110,9 @@ pub struct Surface {
     pub support_distance_m: f32,
     /// The visibility filter's effect, when it ran.
     pub visibility: Option<VisibilityFiltered>,
+    /// Points left out because their local surface faces away from an end of every pair that
+    /// detected them ([`faces_a_pair`]).
+    pub facing_away: usize,
     /// Seconds for the whole stage.
     pub seconds: f64,
 }
@@ -149,6 +159,7 @@ pub fn surface(
     // detections (PSF skirts, sidelobes near the threshold) then carry less of the surface.
     let mut weights = result.fused.intensity.clone();
     let mut sensors = observing_sensors(sc, &result.plans, &result.fused);
+    let mut observers = observing_pairs(sc, &result.plans, &result.fused);
     let mut visibility = None;
     if opts.visibility_filter {
         let coarse = ReconstructParams {
@@ -165,7 +176,6 @@ pub fn surface(
             Orientation::SensorSets(&sensors),
             &coarse,
         )?;
-        let observers = observing_pairs(sc, &result.plans, &result.fused);
         let margin_m = VISIBILITY_MARGIN_VOXELS * voxel;
         let keep = visibility_consistent(&points, &observers, &first.mesh, margin_m)?;
         visibility = Some(VisibilityFiltered {
@@ -179,18 +189,38 @@ pub fn surface(
         sensors.retain(|_| *k.next().unwrap_or(&true));
         let mut k = keep.iter();
         weights.retain(|_| *k.next().unwrap_or(&true));
+        let mut k = keep.iter();
+        observers.retain(|_| *k.next().unwrap_or(&true));
     }
-    let rec = reconstruct(
-        &points,
-        Some(&weights),
-        Orientation::SensorSets(&sensors),
-        &params,
-    )?;
+    let normals = estimate_normals(&points, params.normal_k, Orientation::SensorSets(&sensors))?;
+    let facing: Vec<bool> = points
+        .iter()
+        .zip(&normals)
+        .zip(&observers)
+        .map(|((&p, &n), pairs)| faces_a_pair(p, n, pairs))
+        .collect();
+    let facing_away = facing.iter().filter(|&&f| !f).count();
+    let pick = |v: &[Vec3]| -> Vec<Vec3> {
+        v.iter()
+            .zip(&facing)
+            .filter(|(_, &f)| f)
+            .map(|(x, _)| *x)
+            .collect()
+    };
+    let (points, normals) = (pick(&points), pick(&normals));
+    let weights: Vec<f32> = weights
+        .iter()
+        .zip(&facing)
+        .filter(|(_, &f)| f)
+        .map(|(w, _)| *w)
+        .collect();
+    let rec = reconstruct_oriented(&points, normals, Some(&weights), &params)?;
     Ok(Surface {
         mesh: rec.mesh,
         points,
         normals: rec.normals,
         weights,
+        facing_away,
         depth,
         cell_m: rec.poisson.cell_m,
         clip_box,
@@ -198,4 +228,41 @@ pub fn surface(
         visibility,
         seconds: t.elapsed().as_secs_f64(),
     })
+}
+
+/// Whether a surface element at `point` with unit normal `normal` faces both ends — transmitter
+/// and receiver, `[tx, rx]` — of at least one of `pairs`: `n·(tx − p) > 0` and `n·(rx − p) > 0`,
+/// the condition for a Lambertian facet to echo from one to the other (module docs). A point no
+/// pair observed (`pairs` empty) is kept.
+pub fn faces_a_pair(point: Vec3, normal: Vec3, pairs: &[[Vec3; 2]]) -> bool {
+    pairs.is_empty()
+        || pairs
+            .iter()
+            .any(|[tx, rx]| normal.dot(*tx - point) > 0.0 && normal.dot(*rx - point) > 0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_roof_faces_a_uav_pair_but_not_a_vehicle_pair_below_it() {
+        let roof = Vec3::new(0.0, 0.0, 10.0);
+        let up = Vec3::Z;
+        let bs = Vec3::new(-45.0, -40.0, 20.0);
+        let uav = Vec3::new(0.0, -6.0, 40.0);
+        let vehicle = Vec3::new(-8.0, -27.0, 1.5);
+        assert!(faces_a_pair(roof, up, &[[uav, bs]]));
+        // The vehicle is below the roof: a roof facing up cannot echo to it, one facing down
+        // (what orienting toward the nearer sensor gives) cannot echo to the mast above it.
+        assert!(!faces_a_pair(roof, up, &[[vehicle, bs]]));
+        assert!(!faces_a_pair(roof, -up, &[[vehicle, bs]]));
+        // One facing pair is enough; an unobserved point is kept.
+        assert!(faces_a_pair(roof, up, &[[vehicle, bs], [uav, bs]]));
+        assert!(faces_a_pair(roof, up, &[]));
+        // A south wall faces the vehicle and the mast south of it.
+        let wall = Vec3::new(0.0, -12.0, 4.0);
+        assert!(faces_a_pair(wall, -Vec3::Y, &[[vehicle, bs]]));
+        assert!(!faces_a_pair(wall, Vec3::Y, &[[vehicle, bs]]));
+    }
 }
