@@ -265,4 +265,25 @@ mod tests {
         assert!(faces_a_pair(wall, -Vec3::Y, &[[vehicle, bs]]));
         assert!(!faces_a_pair(wall, Vec3::Y, &[[vehicle, bs]]));
     }
+
+    #[test]
+    fn a_bad_trim_or_an_empty_cloud_is_an_error_naming_it() {
+        let sc =
+            ImagingScenario::from_toml_str(include_str!("../../../fixtures/factory.toml")).unwrap();
+        let empty = RunResult {
+            plans: Vec::new(),
+            images: Vec::new(),
+            fused: super::super::FusedCloud::default(),
+        };
+        for bad in [0.0, -0.5, 1.5, f32::NAN] {
+            let opts = SurfaceOptions {
+                trim_median: bad,
+                ..SurfaceOptions::default()
+            };
+            let e = surface(&sc, &empty, &opts).unwrap_err();
+            assert!(e.to_string().contains("trim_median"), "{e}");
+        }
+        let e = surface(&sc, &empty, &SurfaceOptions::default()).unwrap_err();
+        assert!(e.to_string().contains("points"), "{e}");
+    }
 }
