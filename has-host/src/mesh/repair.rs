@@ -11,7 +11,8 @@
 //!   share only that vertex (Open3D's `is_vertex_manifold`; a trim can leave two sheets, or a
 //!   fragment, touching at one vertex).
 //!
-//! [`TriMesh::repaired`] welds bit-identical vertices, drops degenerate and duplicate faces, and
+//! [`TriMesh::repaired`] welds bit-identical vertices and the ends of face edges shorter than a few
+//! ulps of the coordinates (one point computed twice), drops degenerate and duplicate faces, and
 //! at a bow-tie vertex keeps the largest fan and drops the other fans' faces at that vertex (a
 //! fragment attached by one vertex loses its faces there and, if small, the small-component rule
 //! of [`super::reconstruct`] removes the rest; no coincident vertices are written). [`TriMesh::nonmanifold_vertices`] counts the
@@ -28,6 +29,10 @@ use super::TriMesh;
 
 /// Faces of at most this area (m²) are degenerate: collinear vertices, whose normal is undefined.
 pub const MIN_FACE_AREA_M2: f32 = 1e-12;
+
+/// Face-edge ends closer than this many ulps of the mesh's largest coordinate are one vertex
+/// ([`TriMesh::repaired`]).
+const WELD_ULPS: f32 = 8.0;
 
 /// Rounds of bow-tie removal in [`TriMesh::repaired`] (each round can expose a new bow-tie next
 /// to a dropped face; measured meshes need one or two).
@@ -135,6 +140,33 @@ impl TriMesh {
                     })
             })
             .collect();
+        // Near-coincident vertices: the ends of a face edge shorter than a few ulps of the
+        // coordinates are one point computed twice (two iso-surface edges crossing at a grid
+        // node within rounding; a suite run's rotated site had one edge of four faces from two
+        // vertices 3·10⁻⁸ m apart). Joined by union-find, each to its lowest index.
+        let scale = vertices
+            .iter()
+            .fold(0f32, |m, v: &Vec3| m.max(v.abs().max_element()));
+        let eps = WELD_ULPS * f32::EPSILON * scale.max(1.0);
+        let mut parent: Vec<u32> = (0..vertices.len() as u32).collect();
+        fn root(p: &mut [u32], mut a: u32) -> u32 {
+            while p[a as usize] != a {
+                p[a as usize] = p[p[a as usize] as usize];
+                a = p[a as usize];
+            }
+            a
+        }
+        for f in &self.faces {
+            let f = f.map(|i| map[i as usize]);
+            for k in 0..3 {
+                let (a, b) = (f[k], f[(k + 1) % 3]);
+                if a != b && vertices[a as usize].distance(vertices[b as usize]) <= eps {
+                    let (ra, rb) = (root(&mut parent, a), root(&mut parent, b));
+                    parent[ra.max(rb) as usize] = ra.min(rb);
+                }
+            }
+        }
+        let map: Vec<u32> = map.iter().map(|&i| root(&mut parent, i)).collect();
         // Degenerate and duplicate faces.
         let mut seen = std::collections::HashSet::new();
         let faces: Vec<[u32; 3]> = self
@@ -284,6 +316,37 @@ mod tests {
         assert_eq!(r.vertices, vec![Vec3::ZERO, Vec3::X, Vec3::Y]);
         let top = r.topology();
         assert!(top.manifold && top.degenerate_faces == 0, "{top:?}");
+    }
+
+    #[test]
+    fn vertices_an_ulp_apart_are_one_and_their_four_face_edge_goes() {
+        // The rotated site's case: two vertices one ulp apart (a node crossed by two iso-surface
+        // edges), two sheets of faces meeting at them — the edge between them is used by four
+        // faces. Welded, those four are degenerate and dropped; the rest is manifold.
+        let a = Vec3::new(-19.8, 0.3, 8.125);
+        let b = Vec3::new(a.x, f32::from_bits(a.y.to_bits() + 1), a.z);
+        assert!(a != b && a.distance(b) < 1e-7);
+        let m = TriMesh {
+            vertices: vec![
+                a,
+                b,
+                a + Vec3::new(0.03, 0.0, -0.1),
+                a + Vec3::new(0.02, 0.125, 0.0),
+                a + Vec3::new(-0.06, 0.06, 0.06),
+                a + Vec3::new(0.005, 0.125, 0.005),
+            ],
+            faces: vec![[2, 0, 1], [3, 1, 0], [0, 4, 1], [1, 5, 0], [2, 3, 4]],
+        };
+        assert!(!m.topology().manifold);
+        let r = m.repaired();
+        assert!(r.topology().manifold, "{:?}", r.topology());
+        assert_eq!(r.faces.len(), 1);
+        // Vertices farther apart than a few ulps stay apart.
+        let far = TriMesh {
+            vertices: vec![Vec3::ZERO, Vec3::new(1e-3, 0.0, 0.0), Vec3::Y],
+            faces: vec![[0, 1, 2]],
+        };
+        assert_eq!(far.repaired(), far);
     }
 
     #[test]
