@@ -7,6 +7,9 @@
 //!   and their edges into non-manifold ones);
 //! * **degenerate faces**: a repeated vertex index, or zero area (three collinear points);
 //! * **duplicate faces**: the same three vertices twice (an edge then used three or more times);
+//! * **non-manifold edges**: an edge of three or more faces, or of two running the same way,
+//!   where the iso-surface pinches at a grid node whose vertices were welded — its faces (slivers
+//!   at the node) are dropped;
 //! * **non-manifold ("bow-tie") vertices**: the faces around a vertex form two or more fans that
 //!   share only that vertex (Open3D's `is_vertex_manifold`; a trim can leave two sheets, or a
 //!   fragment, touching at one vertex).
@@ -194,6 +197,38 @@ impl TriMesh {
         for _ in 0..BOWTIE_ROUNDS {
             let mut drop = vec![false; out.faces.len()];
             let mut any = false;
+            // An edge of more than two faces, or of two running the same way: the iso-surface
+            // pinched where it passes a grid node (its vertices there welded); its faces —
+            // slivers at the node — are dropped, and the fans this opens are mended below.
+            let mut half: Vec<(u64, bool, u32)> = Vec::with_capacity(out.faces.len() * 3);
+            for (fi, f) in out.faces.iter().enumerate() {
+                for k in 0..3 {
+                    let (a, b) = (f[k], f[(k + 1) % 3]);
+                    let key = (a.min(b) as u64) << 32 | a.max(b) as u64;
+                    half.push((key, a < b, fi as u32));
+                }
+            }
+            half.sort_unstable();
+            let mut i = 0;
+            while i < half.len() {
+                let mut j = i;
+                while j < half.len() && half[j].0 == half[i].0 {
+                    j += 1;
+                }
+                let forward = half[i..j].iter().filter(|h| h.1).count();
+                if j - i > 2 || (j - i == 2 && forward != 1) {
+                    any = true;
+                    half[i..j].iter().for_each(|h| drop[h.2 as usize] = true);
+                }
+                i = j;
+            }
+            // Applied before the fans are formed: a face dropped here is no fan of its own.
+            let mut k = 0;
+            out.faces.retain(|_| {
+                k += 1;
+                !drop[k - 1]
+            });
+            let mut drop = vec![false; out.faces.len()];
             let (offsets, all) = out.vertex_fans();
             for r in offsets.windows(2) {
                 let incid = &all[r[0]..r[1]];
@@ -341,6 +376,14 @@ mod tests {
         let r = m.repaired();
         assert!(r.topology().manifold, "{:?}", r.topology());
         assert_eq!(r.faces.len(), 1);
+        // The same pinch with the two vertices 4·10⁻⁵ m apart (beyond the weld; a later run of
+        // the rotated site): the edge's four sliver faces are dropped instead.
+        let mut apart = m.clone();
+        apart.vertices[1] = a + Vec3::new(4e-6, 4e-6, 4e-5);
+        let r = apart.repaired();
+        assert!(r.topology().manifold, "{:?}", r.topology());
+        assert_eq!(r.faces, vec![[0, 1, 2]]);
+        assert_eq!(r.vertices, apart.vertices[2..5].to_vec());
         // Vertices farther apart than a few ulps stay apart.
         let far = TriMesh {
             vertices: vec![Vec3::ZERO, Vec3::new(1e-3, 0.0, 0.0), Vec3::Y],
