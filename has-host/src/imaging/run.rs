@@ -664,9 +664,15 @@ pub fn observing_sensors(
     plans: &[PairPlan],
     fused: &FusedCloud,
 ) -> Vec<Vec<Vec3>> {
-    observing_pairs(sc, plans, fused)
-        .into_iter()
-        .map(|pairs| pairs.into_iter().flat_map(|[tx, rx]| [rx, tx]).collect())
+    sensors_of(&observing_pairs(sc, plans, fused))
+}
+
+/// The sensor positions of each point's observing pairs ([`observing_pairs`]), receiver then
+/// transmitter of each pair: [`observing_sensors`] from pairs already at hand.
+pub fn sensors_of(observers: &[Vec<[Vec3; 2]>]) -> Vec<Vec<Vec3>> {
+    observers
+        .iter()
+        .map(|pairs| pairs.iter().flat_map(|&[tx, rx]| [rx, tx]).collect())
         .collect()
 }
 

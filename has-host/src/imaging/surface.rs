@@ -32,7 +32,7 @@ use std::time::Instant;
 use glam::Vec3;
 
 use super::config::ImagingScenario;
-use super::run::{observing_pairs, observing_sensors, support_distance_m, RunResult};
+use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult};
 use crate::knn::GeometryError;
 use crate::mesh::{
     depth_for_cell, estimate_normals, reconstruct, reconstruct_oriented, visibility_consistent,
@@ -158,8 +158,8 @@ pub fn surface(
     // Each point's confidence: its detection's amplitude relative to its pair's peak. Weak
     // detections (PSF skirts, sidelobes near the threshold) then carry less of the surface.
     let mut weights = result.fused.intensity.clone();
-    let mut sensors = observing_sensors(sc, &result.plans, &result.fused);
     let mut observers = observing_pairs(sc, &result.plans, &result.fused);
+    let mut sensors = sensors_of(&observers);
     let mut visibility = None;
     if opts.visibility_filter {
         let coarse = ReconstructParams {
