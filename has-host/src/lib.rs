@@ -26,6 +26,7 @@ pub mod multipath;
 pub mod paths;
 pub mod prediction;
 pub mod propagation;
+pub mod reconstruction;
 pub mod scenario;
 pub mod scene;
 pub mod shapes;

@@ -137,6 +137,135 @@ impl CloudComparison {
     }
 }
 
+/// Precision, recall and F-score at one of [`REPORT_THRESHOLDS_M`], flattened into a report as
+/// `fscore_<d>m`, `precision_<d>m`, `recall_<d>m` (`d` with `_` for the point: `0_5`).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct FScoreFields {
+    /// F-score at 0.5 m, percent.
+    pub fscore_0_5m: f64,
+    /// Precision at 0.5 m, percent.
+    pub precision_0_5m: f64,
+    /// Recall at 0.5 m, percent.
+    pub recall_0_5m: f64,
+    /// F-score at 1.0 m, percent.
+    pub fscore_1_0m: f64,
+    /// Precision at 1.0 m, percent.
+    pub precision_1_0m: f64,
+    /// Recall at 1.0 m, percent.
+    pub recall_1_0m: f64,
+    /// F-score at 1.5 m (the paper's headline), percent.
+    pub fscore_1_5m: f64,
+    /// Precision at 1.5 m, percent.
+    pub precision_1_5m: f64,
+    /// Recall at 1.5 m, percent.
+    pub recall_1_5m: f64,
+}
+
+/// A reconstruction (S1) scored against the truth (S2): every figure a report carries.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct CloudMetrics {
+    /// √CD, metres (eq. 2).
+    pub sqrt_chamfer_m: f64,
+    /// rms distance S1 → S2 (accuracy), metres.
+    pub rms_to_truth_m: f64,
+    /// rms distance S2 → S1 (completeness), metres.
+    pub rms_from_truth_m: f64,
+    /// |S1|.
+    pub points: usize,
+    /// |S2|.
+    pub truth_points: usize,
+    /// Eq. 3 at [`REPORT_THRESHOLDS_M`].
+    #[serde(flatten)]
+    pub fscores: FScoreFields,
+}
+
+impl CloudMetrics {
+    /// The figures of `c` (S1 of `points`, S2 of `truth_points` points).
+    ///
+    /// # Errors
+    /// None in practice (the thresholds are valid); as [`CloudComparison::fscore`].
+    pub fn new(
+        c: &CloudComparison,
+        points: usize,
+        truth_points: usize,
+    ) -> Result<CloudMetrics, GeometryError> {
+        let [a, b, d] = REPORT_THRESHOLDS_M.map(|t| c.fscore(t));
+        let (a, b, d) = (a?, b?, d?);
+        Ok(CloudMetrics {
+            sqrt_chamfer_m: c.sqrt_chamfer_m(),
+            rms_to_truth_m: c.rms_s1_to_s2_m(),
+            rms_from_truth_m: c.rms_s2_to_s1_m(),
+            points,
+            truth_points,
+            fscores: FScoreFields {
+                fscore_0_5m: a.fscore_pct,
+                precision_0_5m: a.precision_pct,
+                recall_0_5m: a.recall_pct,
+                fscore_1_0m: b.fscore_pct,
+                precision_1_0m: b.precision_pct,
+                recall_1_0m: b.recall_pct,
+                fscore_1_5m: d.fscore_pct,
+                precision_1_5m: d.precision_pct,
+                recall_1_5m: d.recall_pct,
+            },
+        })
+    }
+
+    /// The F-scores at [`REPORT_THRESHOLDS_M`], in that order.
+    pub fn fscores(&self) -> [FScore; 3] {
+        let f = &self.fscores;
+        let at = |threshold_m, fscore_pct, precision_pct, recall_pct| FScore {
+            threshold_m,
+            precision_pct,
+            recall_pct,
+            fscore_pct,
+        };
+        let [a, b, d] = REPORT_THRESHOLDS_M;
+        [
+            at(a, f.fscore_0_5m, f.precision_0_5m, f.recall_0_5m),
+            at(b, f.fscore_1_0m, f.precision_1_0m, f.recall_1_0m),
+            at(d, f.fscore_1_5m, f.precision_1_5m, f.recall_1_5m),
+        ]
+    }
+}
+
+/// Completeness on one part of the truth: rms distance from it to S1 and its recall at 1.5 m.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Completeness {
+    /// rms distance from the part's truth points to S1, metres.
+    pub rms_from_truth_m: f64,
+    /// Percentage of the part's truth points within 1.5 m of S1.
+    pub recall_1_5m: f64,
+}
+
+/// Completeness on the part of the truth that `observable` flags and on the rest (`None`
+/// where a part is empty).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct ObservableCompleteness {
+    /// On the flagged truth points.
+    pub observable: Option<Completeness>,
+    /// On the others.
+    pub hidden: Option<Completeness>,
+}
+
+impl ObservableCompleteness {
+    /// Splits `c`'s completeness by `observable` (one flag per S2 point).
+    pub fn new(c: &CloudComparison, observable: &[bool]) -> ObservableCompleteness {
+        let hidden: Vec<bool> = observable.iter().map(|&o| !o).collect();
+        let part = |keep: &[bool]| {
+            c.completeness_on(keep, 1.5)
+                .map(|(rms_from_truth_m, recall_1_5m)| Completeness {
+                    rms_from_truth_m,
+                    recall_1_5m,
+                })
+        };
+        ObservableCompleteness {
+            observable: part(observable),
+            hidden: part(&hidden),
+        }
+    }
+}
+
 /// √CD(S1, S2) in metres (eq. 2).
 ///
 /// # Errors
@@ -419,6 +548,21 @@ pub fn surface_area_metrics(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn report_metrics_carry_the_fscore_of_each_report_threshold() {
+        let truth = grid(20, 0.25, 0.0);
+        let cloud: Vec<Vec3> = grid(12, 0.4, 0.7);
+        let c = CloudComparison::new(&cloud, &truth).unwrap();
+        let m = CloudMetrics::new(&c, cloud.len(), truth.len()).unwrap();
+        assert_eq!(m.sqrt_chamfer_m, c.sqrt_chamfer_m());
+        for (f, d) in m.fscores().iter().zip(REPORT_THRESHOLDS_M) {
+            assert_eq!(*f, c.fscore(d).unwrap(), "threshold {d}");
+        }
+        // The thresholds straddle the plane offset, so the three scores differ.
+        let [a, _, b] = m.fscores();
+        assert!(a.fscore_pct < b.fscore_pct);
+    }
 
     /// Points on a regular n×n grid of spacing `s` on the plane z = `z`.
     fn grid(n: usize, s: f32, z: f32) -> Vec<Vec3> {

@@ -3,7 +3,7 @@
 //!
 //! Each site (a scenario file; its name is the file stem) is reconstructed in turn by
 //! [`crate::reconstruct_cmd::run`] into `DIR/<site>/`, sorted by name or in the order given by
-//! `--sites`. The figures are then read back from each site's `report.json` into a
+//! `--sites`. Each site's typed report (the one it wrote to its `report.json`) gives a
 //! [`SuiteRow`]; `DIR/suite.json` holds the rows and `DIR/suite.md` the same rows as one
 //! Markdown table. A site that fails (an error, or a panic) is a row marked failed with its
 //! error; the other sites still run and the command exits non-zero at the end. The peak memory
@@ -15,7 +15,7 @@ use anyhow::{bail, Context, Result};
 use clap::Args;
 use serde::Serialize;
 
-use crate::reconstruct_cmd::ReconstructArgs;
+use crate::reconstruct_cmd::{ReconstructArgs, RunReport};
 
 /// The suite directory of the source tree, used when `fixtures/suite` is not below the current
 /// directory.
@@ -40,7 +40,7 @@ pub struct SuiteArgs {
     pub suite_dir: Option<PathBuf>,
 }
 
-/// One site's line of the suite table, read back from its `report.json` (`None`: the site
+/// One site's line of the suite table, from its reconstruction's report (`None`: the site
 /// failed, or its report lacks the figure).
 #[derive(Clone, Debug, Default, Serialize)]
 pub struct SuiteRow {
@@ -73,24 +73,25 @@ pub struct SuiteRow {
 }
 
 impl SuiteRow {
-    /// The row of a site whose `report.json` is `r`.
-    fn from_report(site: &str, scenario: &Path, r: &serde_json::Value) -> SuiteRow {
-        let pc = &r["imaging"]["point_cloud"];
-        let mesh = &r["mesh"];
+    /// The row of a site whose reconstruction reported `r`.
+    fn from_report(site: &str, scenario: &Path, r: &RunReport) -> SuiteRow {
+        let rec = &r.reconstruction;
+        let pc = &rec.imaging.point_cloud.metrics;
+        let mesh = rec.mesh.as_ref();
         SuiteRow {
             site: site.to_string(),
             scenario: scenario.display().to_string(),
             ok: true,
             error: None,
-            cloud_sqrt_cd_m: pc["sqrt_chamfer_m"].as_f64(),
-            cloud_fscore_1_5m: pc["fscore_1_5m"].as_f64(),
-            mesh_sqrt_cd_m: mesh["sqrt_chamfer_m"].as_f64(),
-            mesh_fscore_1_5m: mesh["fscore_1_5m"].as_f64(),
-            mesh_false_surface_pct: mesh["false_surface_pct_1_5m"].as_f64(),
-            mesh_area_ratio: mesh["area_ratio"].as_f64(),
-            observable_pct: r["imaging"]["ground_truth"]["observable_pct"].as_f64(),
-            imaging_s: r["timings_s"]["imaging"].as_f64(),
-            peak_rss_mib: r["peak_rss_mib"].as_f64(),
+            cloud_sqrt_cd_m: Some(pc.sqrt_chamfer_m),
+            cloud_fscore_1_5m: Some(pc.fscores.fscore_1_5m),
+            mesh_sqrt_cd_m: mesh.map(|m| m.metrics.sqrt_chamfer_m),
+            mesh_fscore_1_5m: mesh.map(|m| m.metrics.fscores.fscore_1_5m),
+            mesh_false_surface_pct: mesh.map(|m| m.false_surface_pct_1_5m),
+            mesh_area_ratio: mesh.map(|m| m.area_ratio),
+            observable_pct: Some(rec.imaging.ground_truth.observable_pct),
+            imaging_s: Some(rec.timings_s.imaging),
+            peak_rss_mib: r.peak_rss_mib,
         }
     }
 
@@ -156,7 +157,7 @@ fn select(all: &[(String, PathBuf)], names: &[String]) -> Result<Vec<(String, Pa
 }
 
 /// Reconstructs one site into `out`; a panic becomes an error.
-fn run_site(scenario: &Path, out: &Path, quick: bool) -> Result<()> {
+fn run_site(scenario: &Path, out: &Path, quick: bool) -> Result<RunReport> {
     let args = ReconstructArgs::defaults(Some(scenario.to_path_buf()), out, quick);
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         crate::reconstruct_cmd::run(args)
@@ -249,14 +250,8 @@ pub fn run(args: SuiteArgs) -> Result<()> {
         println!("== suite: {site} ({}/{}) ==", k + 1, sites.len());
         let out = args.out.join(site);
         crate::resources::reset_peak_rss();
-        let row = match run_site(path, &out, args.quick).and_then(|()| {
-            let f = out.join("report.json");
-            let text = std::fs::read(&f).with_context(|| format!("reading {}", f.display()))?;
-            let r: serde_json::Value = serde_json::from_slice(&text)
-                .with_context(|| format!("parsing {}", f.display()))?;
-            Ok(SuiteRow::from_report(site, path, &r))
-        }) {
-            Ok(row) => row,
+        let row = match run_site(path, &out, args.quick) {
+            Ok(r) => SuiteRow::from_report(site, path, &r),
             Err(e) => {
                 let msg = format!("{e:#}").replace('\n', " ");
                 eprintln!("has-sim: suite: {site} failed: {msg}");
@@ -303,18 +298,21 @@ mod tests {
 
     #[test]
     fn a_failed_site_is_a_row_marked_failed_with_its_error() {
-        let ok = SuiteRow::from_report(
-            "a",
-            Path::new("a.toml"),
-            &serde_json::json!({
-                "imaging": {"point_cloud": {"sqrt_chamfer_m": 1.25, "fscore_1_5m": 91.04},
-                            "ground_truth": {"observable_pct": 80.0}},
-                "mesh": {"sqrt_chamfer_m": 1.0, "fscore_1_5m": 93.0,
-                         "false_surface_pct_1_5m": 4.0, "area_ratio": 1.1},
-                "timings_s": {"imaging": 12.0},
-                "peak_rss_mib": 100.0
-            }),
-        );
+        let ok = SuiteRow {
+            site: "a".into(),
+            scenario: "a.toml".into(),
+            ok: true,
+            error: None,
+            cloud_sqrt_cd_m: Some(1.25),
+            cloud_fscore_1_5m: Some(91.04),
+            mesh_sqrt_cd_m: Some(1.0),
+            mesh_fscore_1_5m: Some(93.0),
+            mesh_false_surface_pct: Some(4.0),
+            mesh_area_ratio: Some(1.1),
+            observable_pct: Some(80.0),
+            imaging_s: Some(12.0),
+            peak_rss_mib: Some(100.0),
+        };
         let bad = SuiteRow::failed("b", Path::new("b.toml"), "boom".into());
         let md = render_md(&[ok, bad], "quick");
         assert!(md.contains("| a | 1.250 | 91.0 | 1.000 | 93.0 | 4.0 | 1.10 | 80.0 | 12.0 | 100 |"));

@@ -18,4 +18,4 @@ pub use run::{
     support_distance_m, FusedCloud, RunError, RunResult, Terrain, World,
 };
 pub use sensors::{nyquist_spacing_m, pair_resolution_m, PlanarArray, VirtualAperture};
-pub use surface::{surface, Surface, SurfaceOptions};
+pub use surface::{surface, Surface, SurfaceOptions, VisibilityFiltered};

@@ -1,0 +1,473 @@
+//! The paper's §1 as one library call: image every planned base station–terminal pair, fuse,
+//! mesh the fused cloud into the digital twin's surface, and score cloud and mesh against the
+//! truth. `has-sim reconstruct` is this call plus files; `channel` and `localize` ray-trace the
+//! [`Reconstruction::surface`]'s mesh when no twin is given.
+//!
+//! Two steps, so that a caller can show per-pair progress before the long one:
+//! [`prepare`] builds the world and plans the pairs ([`Prepared`]); [`Prepared::reconstruct`]
+//! runs the imaging (`progress(pair, frames done, frames total)`), the surface and the metrics,
+//! and returns a typed, `Serialize` [`ReconstructReport`] beside the data it summarises.
+//!
+//! Units: metres, seconds; metrics as [`crate::metrics`] (eq. 2 and 3 of the paper, S1 the
+//! reconstruction, S2 the truth samples); mesh metrics on area samples of the mesh at the truth's
+//! density.
+
+use std::time::Instant;
+
+use glam::Vec3;
+use serde::Serialize;
+
+use crate::imaging::{
+    self, FusedCloud, ImagingScenario, PairPlan, PairStats, RunError, RunOptions, RunResult,
+    Surface, SurfaceOptions, VisibilityFiltered, World,
+};
+use crate::knn::GeometryError;
+use crate::metrics::{surface_area_metrics, CloudComparison, CloudMetrics, ObservableCompleteness};
+
+/// Why a reconstruction failed.
+#[derive(Debug, thiserror::Error)]
+pub enum ReconstructError {
+    /// Building the world, planning or imaging.
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// Meshing or scoring.
+    #[error("surface reconstruction: {0}")]
+    Surface(GeometryError),
+    /// Scoring the cloud.
+    #[error("metrics: {0}")]
+    Metrics(GeometryError),
+}
+
+/// Options of [`Prepared::reconstruct`].
+#[derive(Clone, Debug)]
+pub struct ReconstructOptions {
+    /// Imaging path (f32 or Q15) and echo kind.
+    pub run: RunOptions,
+    /// The surface stage; `None` skips it.
+    pub surface: Option<SurfaceOptions>,
+}
+
+/// The world and the planned pairs of a scenario, ready to image.
+pub struct Prepared<'a> {
+    /// The scenario.
+    pub scenario: &'a ImagingScenario,
+    /// Scene, scatterers, truth and terrain.
+    pub world: World,
+    /// The pairs that will be imaged, in order (the `pair` index of the progress callback).
+    pub plans: Vec<PairPlan>,
+    t0: Instant,
+    setup_s: f64,
+}
+
+/// Builds the world and plans the pairs of `sc` (already validated; apply the quick preset
+/// before).
+///
+/// # Errors
+/// [`ReconstructError::Run`]: a scene that does not build, a region over the memory budget.
+pub fn prepare(sc: &ImagingScenario) -> Result<Prepared<'_>, ReconstructError> {
+    let t0 = Instant::now();
+    let world = imaging::build_world(sc)?;
+    let plans = imaging::plan_pairs(sc)?;
+    Ok(Prepared {
+        scenario: sc,
+        world,
+        plans,
+        t0,
+        setup_s: t0.elapsed().as_secs_f64(),
+    })
+}
+
+/// [`prepare`] then [`Prepared::reconstruct`], for callers that do not show per-pair progress
+/// before the imaging starts.
+///
+/// # Errors
+/// [`ReconstructError`].
+pub fn reconstruct(
+    sc: &ImagingScenario,
+    opts: &ReconstructOptions,
+    progress: &(dyn Fn(usize, u64, u64) + Sync),
+) -> Result<Reconstruction, ReconstructError> {
+    prepare(sc)?.reconstruct(opts, progress)
+}
+
+impl Default for ReconstructOptions {
+    /// f32 imaging of range-compressed profiles, the surface with its default options.
+    fn default() -> Self {
+        ReconstructOptions {
+            run: RunOptions::default(),
+            surface: Some(SurfaceOptions::default()),
+        }
+    }
+}
+
+/// What [`Prepared::reconstruct`] produced: the data and its report.
+pub struct Reconstruction {
+    /// Scene, scatterers, truth and terrain.
+    pub world: World,
+    /// The pairs' images and the fused cloud.
+    pub result: RunResult,
+    /// The meshed surface, unless skipped.
+    pub surface: Option<Surface>,
+    /// Area samples of the mesh at the truth's density (what its metrics were computed on).
+    pub mesh_samples: Vec<Vec3>,
+    /// The figures.
+    pub report: ReconstructReport,
+}
+
+/// One imaged pair in a [`ReconstructReport`].
+#[derive(Clone, Debug, Serialize)]
+pub struct PairReport {
+    /// `BS-aperture`.
+    pub name: String,
+    /// The base station's name.
+    pub base_station: String,
+    /// The aperture's name.
+    pub aperture: String,
+    /// Aperture positions imaged.
+    pub aperture_positions: usize,
+    /// The pair's theoretical resolution cell at the region's centre, metres
+    /// ([`imaging::resolution_cell_m`]).
+    pub resolution_cell_m: f32,
+    /// The pair's factor in the fusion.
+    pub fusion_factor: f32,
+    /// Detections.
+    pub points: usize,
+    /// The pair's own cloud against the whole truth (`None` if it detected nothing).
+    pub metrics_against_whole_truth: Option<CloudMetrics>,
+    /// Work and timing of the pair.
+    pub stats: PairStats,
+}
+
+/// The fused cloud's figures.
+#[derive(Clone, Debug, Serialize)]
+pub struct PointCloudReport {
+    /// Against the whole truth.
+    #[serde(flatten)]
+    pub metrics: CloudMetrics,
+    /// Completeness on the observable and the hidden truth.
+    pub observable_truth: ObservableCompleteness,
+    /// Points the cross-pair confirmation removed.
+    pub unconfirmed_removed: usize,
+}
+
+/// What the ground truth is and how much of it the imaged pairs could see.
+#[derive(Clone, Debug, Serialize)]
+pub struct GroundTruthReport {
+    /// The truth objects' names.
+    pub objects: Vec<String>,
+    /// Sampling density, points per m².
+    pub density_per_m2: f64,
+    /// Which faces are sampled.
+    pub surfaces: &'static str,
+    /// Percentage of truth points in line of sight of some imaged pair.
+    pub observable_pct: f64,
+    /// What `observable_pct` counts.
+    pub observable: &'static str,
+    /// The same for every base station–aperture combination.
+    pub observable_any_pairing_pct: f64,
+    /// What `observable_any_pairing_pct` counts.
+    pub observable_any_pairing: &'static str,
+}
+
+/// The imaging half of a [`ReconstructReport`].
+#[derive(Clone, Debug, Serialize)]
+pub struct ImagingReport {
+    /// The fused cloud.
+    pub point_cloud: PointCloudReport,
+    /// Fine voxel edge, metres.
+    pub voxel_m: f32,
+    /// Every imaged pair.
+    pub pairs: Vec<PairReport>,
+    /// Surface scatterers of the simulated scene.
+    pub scatterers: usize,
+    /// The truth.
+    pub ground_truth: GroundTruthReport,
+}
+
+/// The mesh's figures and how it was made.
+#[derive(Clone, Debug, Serialize)]
+pub struct MeshReport {
+    /// Its area samples against the whole truth.
+    #[serde(flatten)]
+    pub metrics: CloudMetrics,
+    /// Completeness on the observable and the hidden truth.
+    pub observable_truth: ObservableCompleteness,
+    /// Share of the mesh's area farther than 1.5 m from the truth, percent.
+    pub false_surface_pct_1_5m: f64,
+    /// Mesh area over the truth's.
+    pub area_ratio: f64,
+    /// Mesh area, m².
+    pub area_m2: f64,
+    /// Truth area, m².
+    pub truth_area_m2: f64,
+    /// Vertices.
+    pub vertices: usize,
+    /// Faces.
+    pub faces: usize,
+    /// Closed.
+    pub watertight: bool,
+    /// Every edge of at most two faces, every vertex one fan.
+    pub manifold: bool,
+    /// Poisson depth.
+    pub depth: u32,
+    /// Finest Poisson cell, metres.
+    pub cell_m: f32,
+    /// The box the mesh was clipped to, metres.
+    pub clip_box: [[f32; 3]; 2],
+    /// Support clip distance, metres.
+    pub support_distance_m: Option<f32>,
+    /// [`imaging::surface::MIN_COMPONENT_FRACTION`].
+    pub min_component_fraction: f32,
+    /// What the visibility filter did, if it ran.
+    pub visibility_filter: Option<VisibilityFiltered>,
+    /// Points left out of the mesher's input by the facing rule.
+    pub facing_away_points: usize,
+    /// Density trim fraction.
+    pub trim_median_fraction: f32,
+    /// What weighs the samples.
+    pub sample_weights: &'static str,
+    /// Area samples per m² for the metrics.
+    pub sample_density_per_m2: f64,
+    /// Surface stage time, seconds.
+    pub seconds: f64,
+}
+
+/// How the figures are defined.
+#[derive(Clone, Debug, Serialize)]
+pub struct Conventions {
+    /// Eq. 2.
+    pub chamfer: &'static str,
+    /// Eq. 3.
+    pub fscore: &'static str,
+    /// S1.
+    pub s1: &'static str,
+    /// S2.
+    pub s2: &'static str,
+}
+
+/// Where the time went, seconds. `wall` and `postprocess` are the library's own; a caller that
+/// writes files may extend them.
+#[derive(Clone, Debug, Serialize)]
+pub struct Timings {
+    /// From [`prepare`] to the end.
+    pub wall: f64,
+    /// [`prepare`].
+    pub setup: f64,
+    /// Imaging and fusion.
+    pub imaging: f64,
+    /// Back-projection, summed over pairs.
+    pub backprojection: f64,
+    /// Scoring the cloud (and whatever the caller adds).
+    pub postprocess: f64,
+}
+
+/// Everything [`Prepared::reconstruct`] measured.
+#[derive(Clone, Debug, Serialize)]
+pub struct ReconstructReport {
+    /// Back-projection path.
+    pub path: &'static str,
+    /// Echo kind.
+    pub echo: &'static str,
+    /// Imaging and fused cloud.
+    pub imaging: ImagingReport,
+    /// The mesh (`None` when skipped).
+    pub mesh: Option<MeshReport>,
+    /// Definitions.
+    pub conventions: Conventions,
+    /// Timings.
+    pub timings_s: Timings,
+    /// Backprojections (voxel × element × position updates).
+    pub backprojections: f64,
+    /// Their rate over the back-projection time.
+    pub backprojections_per_s: f64,
+    /// Rayon threads.
+    pub threads: usize,
+}
+
+impl Prepared<'_> {
+    /// Images, fuses, meshes and scores (module docs). `progress(pair, done, total)` reports
+    /// frames of pair `pair` (an index into [`Prepared::plans`]).
+    ///
+    /// # Errors
+    /// [`ReconstructError`].
+    pub fn reconstruct(
+        self,
+        opts: &ReconstructOptions,
+        progress: &(dyn Fn(usize, u64, u64) + Sync),
+    ) -> Result<Reconstruction, ReconstructError> {
+        let sc = self.scenario;
+        let world = self.world;
+        let t1 = Instant::now();
+        let result = imaging::run_imaging(sc, &world, self.plans, opts.run, progress)?;
+        let t_imaging = t1.elapsed().as_secs_f64();
+
+        let t2 = Instant::now();
+        let fused: &FusedCloud = &result.fused;
+        let n_truth = world.truth.len();
+        let cmp =
+            CloudComparison::new(&fused.points, &world.truth).map_err(ReconstructError::Metrics)?;
+        let observable = imaging::observable_truth(sc, &world, &result.plans);
+        let point_cloud = PointCloudReport {
+            metrics: CloudMetrics::new(&cmp, fused.points.len(), n_truth)
+                .map_err(ReconstructError::Metrics)?,
+            observable_truth: ObservableCompleteness::new(&cmp, &observable),
+            unconfirmed_removed: fused.unconfirmed,
+        };
+        let any_pairing_pct = imaging::share_pct(&imaging::observable_truth(
+            sc,
+            &world,
+            &imaging::every_pairing(sc),
+        ));
+        let region_centre = {
+            let (lo, hi) = sc.region();
+            (lo + hi) * 0.5
+        };
+        let (mut total_bp, mut total_bp_s) = (0.0, 0.0);
+        let mut pairs = Vec::with_capacity(result.plans.len());
+        for (k, (p, img)) in result.plans.iter().zip(&result.images).enumerate() {
+            total_bp += img.stats.backprojections;
+            total_bp_s += img.stats.bp_s;
+            let metrics_against_whole_truth = if img.points.is_empty() {
+                None
+            } else {
+                let c = CloudComparison::new(&img.points, &world.truth)
+                    .map_err(ReconstructError::Metrics)?;
+                Some(
+                    CloudMetrics::new(&c, img.points.len(), n_truth)
+                        .map_err(ReconstructError::Metrics)?,
+                )
+            };
+            pairs.push(PairReport {
+                name: p.name.clone(),
+                base_station: sc.base_stations[p.bs].name.clone(),
+                aperture: sc.apertures[p.aperture].name.clone(),
+                aperture_positions: p.positions,
+                resolution_cell_m: imaging::resolution_cell_m(
+                    sc,
+                    p.bs,
+                    p.aperture,
+                    p.positions,
+                    region_centre,
+                ),
+                fusion_factor: fused.pair_factor[k],
+                points: img.points.len(),
+                metrics_against_whole_truth,
+                stats: img.stats.clone(),
+            });
+        }
+        let imaging = ImagingReport {
+            point_cloud,
+            voxel_m: sc.imaging.voxel_m,
+            pairs,
+            scatterers: world.scatterers.len(),
+            ground_truth: GroundTruthReport {
+                objects: sc.imaging.truth_objects.clone(),
+                density_per_m2: sc.imaging.truth_density_per_m2,
+                surfaces: "every face of the truth objects not facing down (walls and roof)",
+                observable_pct: imaging::share_pct(&observable),
+                observable: "truth points in line of sight of some imaged pair's panel and aperture (imaging::observable_truth)",
+                observable_any_pairing_pct: any_pairing_pct,
+                observable_any_pairing: "the same for every base station–aperture combination of the scenario (imaging::every_pairing): the ceiling of the pairing choice",
+            },
+        };
+        let t_post = t2.elapsed().as_secs_f64();
+
+        let (surface, mesh_samples, mesh) = match &opts.surface {
+            None => (None, Vec::new(), None),
+            Some(so) => {
+                let (surf, samples, m) = mesh_stage(sc, &world, &result, &observable, so)?;
+                (Some(surf), samples, Some(m))
+            }
+        };
+        let report = ReconstructReport {
+            path: if opts.run.fixed_point {
+                "fixed_point_q15"
+            } else {
+                "f32"
+            },
+            echo: if opts.run.raw_ofdm {
+                "raw_ofdm_range_compressed_by_has_dsp"
+            } else {
+                "direct_range_compressed_profiles"
+            },
+            imaging,
+            mesh,
+            conventions: Conventions {
+                chamfer: "eq. 2: mean over S1 of min squared distance to S2 plus mean over S2 of min squared distance to S1; reported as sqrt (m)",
+                fscore: "eq. 3: 2PR/(P+R), P = % of S1 within d of S2, R = % of S2 within d of S1 (strict <)",
+                s1: "fused imaging point cloud (voxel positions)",
+                s2: "ground-truth samples on the true building surfaces",
+            },
+            timings_s: Timings {
+                wall: self.t0.elapsed().as_secs_f64(),
+                setup: self.setup_s,
+                imaging: t_imaging,
+                backprojection: total_bp_s,
+                postprocess: t_post,
+            },
+            backprojections: total_bp,
+            backprojections_per_s: total_bp / f64::max(total_bp_s, 1e-9),
+            threads: rayon::current_num_threads(),
+        };
+        Ok(Reconstruction {
+            world,
+            result,
+            surface,
+            mesh_samples,
+            report,
+        })
+    }
+}
+
+/// Meshes the fused cloud ([`imaging::surface`]) and scores its area samples.
+fn mesh_stage(
+    sc: &ImagingScenario,
+    world: &World,
+    result: &RunResult,
+    observable: &[bool],
+    opts: &SurfaceOptions,
+) -> Result<(Surface, Vec<Vec3>, MeshReport), ReconstructError> {
+    let surf = imaging::surface(sc, result, opts).map_err(ReconstructError::Surface)?;
+    let density = sc.imaging.truth_density_per_m2;
+    let samples = surf
+        .mesh
+        .sample(density, sc.imaging.seed.wrapping_add(3))
+        .map_err(ReconstructError::Surface)?;
+    let cmp = CloudComparison::new(&samples, &world.truth).map_err(ReconstructError::Surface)?;
+    // False surface (area-weighted share farther than 1.5 m from the truth) and area against
+    // the truth's: what Chamfer and F-score average away (a sheet over the ground, ghost walls).
+    let area = surface_area_metrics(
+        &samples,
+        surf.mesh.area_m2(),
+        &world.truth,
+        &world.truth_triangles,
+        1.5,
+    )
+    .map_err(ReconstructError::Surface)?;
+    let topo = surf.mesh.topology();
+    let report = MeshReport {
+        metrics: CloudMetrics::new(&cmp, samples.len(), world.truth.len())
+            .map_err(ReconstructError::Surface)?,
+        observable_truth: ObservableCompleteness::new(&cmp, observable),
+        false_surface_pct_1_5m: area.false_surface_pct,
+        area_ratio: area.area_ratio,
+        area_m2: area.area_m2,
+        truth_area_m2: area.truth_area_m2,
+        vertices: surf.mesh.vertices.len(),
+        faces: surf.mesh.faces.len(),
+        watertight: topo.watertight,
+        manifold: topo.manifold,
+        depth: surf.depth,
+        cell_m: surf.cell_m,
+        clip_box: [surf.clip_box.0.to_array(), surf.clip_box.1.to_array()],
+        support_distance_m: Some(surf.support_distance_m),
+        min_component_fraction: imaging::surface::MIN_COMPONENT_FRACTION,
+        visibility_filter: surf.visibility,
+        facing_away_points: surf.facing_away,
+        trim_median_fraction: opts.trim_median,
+        sample_weights: "intensity",
+        sample_density_per_m2: density,
+        seconds: surf.seconds,
+    };
+    Ok((surf, samples, report))
+}
