@@ -14,6 +14,7 @@ pub use has_dsp::geometry::{bistatic_range, wavelength_m, C_M_PER_S};
 
 pub mod beam;
 pub mod channel;
+pub mod channel_experiment;
 pub mod echo;
 pub mod io;
 pub mod knn;
