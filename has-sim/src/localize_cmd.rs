@@ -11,10 +11,10 @@ use clap::Args;
 use glam::Vec3;
 use has_host::imaging::ImagingScenario;
 use has_host::io::{ply::write_ply, PlyData, PlyFormat};
-use has_host::localize::{run_localize, LocalizeResult, LocalizeSpec, ModeSummary};
+use has_host::localize::{run_localize, LocalizeReport, LocalizeResult, LocalizeSpec};
 use indicatif::{ProgressBar, ProgressStyle};
 use plotters::style::RGBColor;
-use serde_json::json;
+use serde::Serialize;
 
 use crate::plot::{self, View};
 use crate::reconstruct_cmd::{build_twin, load_scenario};
@@ -53,21 +53,6 @@ fn load(args: &LocalizeArgs) -> Result<(ImagingScenario, LocalizeSpec, String)> 
     Ok((sc, spec, name))
 }
 
-fn summary_json(s: &ModeSummary) -> serde_json::Value {
-    json!({
-        "label": s.label,
-        "sqrt_chamfer_m": s.sqrt_chamfer_m,
-        "sqrt_chamfer_all_detections_m": s.sqrt_chamfer_all_m,
-        "accuracy_rms_m": s.accuracy_rms_m,
-        "completeness_rms_m": s.completeness_rms_m,
-        "completeness_strong_rms_m": s.completeness_strong_rms_m,
-        "detections": s.detections,
-        "false_alarms": s.false_alarms,
-        "frames_detected": s.frames_detected,
-        "cancellation_db": s.cancellation_db,
-    })
-}
-
 fn write_points(path: &Path, points: Vec<Vec3>, props: Vec<(&str, Vec<f32>)>) -> Result<()> {
     let mut d = PlyData::from_points(points);
     for (n, v) in props {
@@ -75,6 +60,15 @@ fn write_points(path: &Path, points: Vec<Vec3>, props: Vec<(&str, Vec<f32>)>) ->
     }
     write_ply(path, &d, PlyFormat::BinaryLittleEndian)
         .with_context(|| format!("writing {}", path.display()))
+}
+
+/// `report.json` of `localize`: the library's report with what only the command knows.
+#[derive(Serialize)]
+struct RunReport {
+    scenario: String,
+    preset: &'static str,
+    twin: String,
+    localize: LocalizeReport,
 }
 
 /// Runs the command.
@@ -133,76 +127,16 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
     bar.finish_and_clear();
     let run_s = t1.elapsed().as_secs_f64();
 
-    let eca = &result.summaries[result.eca_best];
-    let env = &result.summaries[result.env_pass];
-    let improvement = match (eca.sqrt_chamfer_m, env.sqrt_chamfer_m) {
-        (Some(a), Some(b)) if a > 0.0 => Some(100.0 * (a - b) / a),
-        _ => None,
-    };
     write_outputs(&args, &spec, &result)?;
+    let mut report = RunReport {
+        scenario: scenario_name,
+        preset: if args.quick { "quick" } else { "default" },
+        twin: twin_name,
+        localize: LocalizeReport::new(&spec, &result, run_s, twin_built_s),
+    };
     let wall = t0.elapsed().as_secs_f64();
-
-    let frames_json: Vec<serde_json::Value> = result
-        .frames
-        .iter()
-        .map(|f| {
-            json!({
-                "index": f.index,
-                "target_base": [f.centre.x, f.centre.y, f.centre.z],
-                "radial_speed_mps": f.radial_speed_mps,
-                "doppler_hz": f.doppler_hz,
-                "truth_points": f.truth.len(),
-                "detections": result.passes.iter().zip(&f.detections)
-                    .map(|(p, d)| (p.clone(), json!(d.len())))
-                    .collect::<serde_json::Map<_, _>>(),
-                "cancellation_db": result.passes.iter().zip(&f.cancellation_db)
-                    .map(|(p, d)| (p.clone(), json!(d)))
-                    .collect::<serde_json::Map<_, _>>(),
-                "template_db": f.template_db,
-            })
-        })
-        .collect();
-    let report = json!({
-        "scenario": scenario_name,
-        "preset": if args.quick { "quick" } else { "default" },
-        "twin": twin_name,
-        "localize": {
-            "eca": summary_json(eca),
-            "env": summary_json(env),
-            "improvement_pct": improvement,
-            "eca_variants": result.eca_passes.iter().map(|&p| summary_json(&result.summaries[p])).collect::<Vec<_>>(),
-            "no_suppression": summary_json(&result.summaries[0]),
-            "template_depth_db": result.frames.iter().map(|f| f.template_db).sum::<f64>() / result.frames.len() as f64,
-            "env_gate_fraction": result.frames.first().map(|f| f.gate_fraction),
-            "frames": frames_json,
-            "clutter_scatterers": result.clutter_scatterers,
-            "twin_scatterers": result.twin_scatterers,
-            "target_scatterers_per_frame": result.target_scatterers,
-            "truth_points": result.frames.iter().map(|f| f.truth.len()).sum::<usize>(),
-            "cube_range_beams_doppler": result.cube,
-            "range_window_m": result.range_window_m,
-            "spec": spec,
-            "timings_s": {
-                "wall": wall,
-                "twin_reconstruction": twin_built_s,
-                "run": run_s,
-                "setup": result.timings_s.setup,
-                "synthesis": result.timings_s.synthesis,
-                "processing": result.timings_s.processing,
-            },
-            "threads": rayon::current_num_threads(),
-            "conventions": {
-                "chamfer": "paper eq. 2 (squared distances, mean each way, summed), reported as sqrt, metres",
-                "s1": "detections within false_alarm_gate_m of the target's surface in their frame, pooled over frames",
-                "s2": "the target's true scattering points: its surface scatterers facing the base station at each CPI centre, pooled over frames",
-                "accuracy_completeness": "√CD² = accuracy² + completeness² (rms S1→S2 and S2→S1); completeness is also given on the truth points within 60° of their normal (cos ≥ 0.5)",
-                "false_alarm": "a detection farther than false_alarm_gate_m from the target cylinder's surface in its frame",
-                "cancellation_db": "energy of the beamformed slow-time data (range window × field of view) without suppression over with it",
-                "template_depth_db": "energy of the range-compressed frame before over after the environment template subtraction",
-            },
-        },
-    });
-    let text = serde_json::to_string_pretty(&report)?;
+    report.localize.timings_s.wall = wall;
+    let text = serde_json::to_string_pretty(&serde_json::to_value(&report)?)?;
     has_host::io::atomic_write(&args.out.join("report.json"), |w| {
         std::io::Write::write_all(w, text.as_bytes())
     })?;
@@ -210,6 +144,7 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
     has_host::io::atomic_write(&args.out.join("report.md"), |w| {
         std::io::Write::write_all(w, md.as_bytes())
     })?;
+    let (eca, env) = (&report.localize.eca, &report.localize.env);
     let f = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.3} m"));
     println!(
         "localize: ECA ({}) √CD {}, {} detections, {} false alarms; env prior √CD {}, {} detections, {} false alarms; improvement {}  [paper: 1.73 m → 1.07 m, 40 %]",
@@ -220,7 +155,10 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
         f(env.sqrt_chamfer_m),
         env.detections,
         env.false_alarms,
-        improvement.map_or("—".to_string(), |p| format!("{p:.1} %")),
+        report
+            .localize
+            .improvement_pct
+            .map_or("—".to_string(), |p| format!("{p:.1} %")),
     );
     println!("wall {:.1} s; report in {}", wall, args.out.display());
     run_dir.finish()
@@ -295,43 +233,13 @@ fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -
     )?;
     // Range–Doppler maps at the beam towards the target, for the frame with the slowest radial
     // speed (where the clutter notch hurts most) and the fastest.
-    let slow = r
-        .frames
-        .iter()
-        .min_by(|a, b| {
-            a.radial_speed_mps
-                .abs()
-                .total_cmp(&b.radial_speed_mps.abs())
-        })
-        .map(|f| f.index)
-        .unwrap_or(0);
-    let fast = r
-        .frames
-        .iter()
-        .max_by(|a, b| {
-            a.radial_speed_mps
-                .abs()
-                .total_cmp(&b.radial_speed_mps.abs())
-        })
-        .map(|f| f.index)
-        .unwrap_or(0);
-    let nb = r.cube[0];
-    let nd = r.cube[2];
-    let t_sym = spec.symbol_interval_ms * 1e-3;
-    let fmax = 0.5 / t_sym;
-    let noise_db = 10.0 * r.noise_cell.log10() as f32;
+    let (slow, fast) = r.slowest_and_fastest_frames();
+    let (nb, nd) = (r.cube[0], r.cube[2]);
+    let fmax = spec.doppler_max_hz();
     for (tag, fi) in [("slow", slow), ("fast", fast)] {
         let fr = &r.frames[fi];
         for (name, pass) in [("before", 0usize), ("eca", r.eca_best), ("env", r.env_pass)] {
-            let rd = &fr.range_doppler[pass];
-            // [b][d] FFT order → [d shifted][b] in dB relative to the noise per cell.
-            let mut v = vec![0.0f32; nb * nd];
-            for d in 0..nd {
-                let ds = (d + nd / 2) % nd;
-                for b in 0..nb {
-                    v[ds * nb + b] = 10.0 * rd[b * nd + d].max(1e-30).log10() - noise_db;
-                }
-            }
+            let v = r.range_doppler_db(fi, pass);
             let title = format!(
                 "Range–Doppler at the target's beam, frame {} (radial {:.2} m/s), {}",
                 fi,
@@ -357,18 +265,16 @@ fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -
     Ok(())
 }
 
-fn report_md(r: &serde_json::Value, res: &LocalizeResult) -> Result<String> {
+fn report_md(r: &RunReport, res: &LocalizeResult) -> Result<String> {
     use std::fmt::Write;
-    let l = &r["localize"];
+    let l = &r.localize;
     let mut s = String::new();
     writeln!(
         s,
         "# has-sim localize — {}\n\nPreset `{}`, twin `{}`.\n",
-        r["scenario"].as_str().unwrap_or(""),
-        r["preset"].as_str().unwrap_or(""),
-        r["twin"].as_str().unwrap_or("")
+        r.scenario, r.preset, r.twin
     )?;
-    let m = |v: &serde_json::Value| v.as_f64().map_or("—".into(), |x| format!("{x:.3} m"));
+    let f = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3} m"));
     writeln!(s, "| target localization | √CD | accuracy rms | completeness rms (cos ≥ 0.5) | detections | false alarms | frames detected | cancellation |")?;
     writeln!(s, "|---|---|---|---|---|---|---|---|")?;
     for p in 0..res.passes.len() {
@@ -380,7 +286,6 @@ fn report_md(r: &serde_json::Value, res: &LocalizeResult) -> Result<String> {
         } else {
             ""
         };
-        let f = |v: Option<f64>| v.map_or("—".to_string(), |v| format!("{v:.3} m"));
         writeln!(
             s,
             "| {}{} | {} | {} | {} ({}) | {} | {} | {}/{} | {:.1} dB |",
@@ -400,17 +305,16 @@ fn report_md(r: &serde_json::Value, res: &LocalizeResult) -> Result<String> {
     writeln!(
         s,
         "\nECA {} → environment prior {}: improvement {}. Paper: 1.73 m → 1.07 m (≈ 40 %).",
-        m(&l["eca"]["sqrt_chamfer_m"]),
-        m(&l["env"]["sqrt_chamfer_m"]),
-        l["improvement_pct"]
-            .as_f64()
+        f(l.eca.sqrt_chamfer_m),
+        f(l.env.sqrt_chamfer_m),
+        l.improvement_pct
             .map_or("—".into(), |p| format!("{p:.1} %"))
     )?;
     writeln!(
         s,
         "\nTemplate subtraction (twin prediction fitted per range segment) removes {:.2} dB of the frame energy on average; the twin's clutter map notches {:.1} % of the (range, beam) cells.",
-        l["template_depth_db"].as_f64().unwrap_or(0.0),
-        100.0 * l["env_gate_fraction"].as_f64().unwrap_or(0.0)
+        l.template_depth_db,
+        100.0 * l.env_gate_fraction.unwrap_or(0.0)
     )?;
     writeln!(
         s,
@@ -429,15 +333,15 @@ fn report_md(r: &serde_json::Value, res: &LocalizeResult) -> Result<String> {
             f.detections[res.env_pass].len()
         )?;
     }
-    let t = &l["timings_s"];
+    let t = &l.timings_s;
     writeln!(
         s,
         "\nWall {:.1} s (twin reconstruction {}, synthesis {:.1} s, processing {:.1} s) on {} threads. Cube {:?} (range bins × beams × Doppler bins), range window {:.1}–{:.1} m; {} visible clutter scatterers, {} twin scatterers, {:.0} target scatterers per frame.",
-        t["wall"].as_f64().unwrap_or(0.0),
-        t["twin_reconstruction"].as_f64().map_or("given".into(), |v| format!("{v:.1} s")),
-        t["synthesis"].as_f64().unwrap_or(0.0),
-        t["processing"].as_f64().unwrap_or(0.0),
-        l["threads"],
+        t.wall,
+        t.twin_reconstruction.map_or("given".into(), |v| format!("{v:.1} s")),
+        t.synthesis,
+        t.processing,
+        l.threads,
         res.cube,
         res.range_window_m[0],
         res.range_window_m[1],
@@ -445,13 +349,11 @@ fn report_md(r: &serde_json::Value, res: &LocalizeResult) -> Result<String> {
         res.twin_scatterers,
         res.target_scatterers
     )?;
+    let c = &l.conventions;
     writeln!(
         s,
         "\nConventions: {}; S1 = {}; S2 = {}; false alarm = {}.",
-        l["conventions"]["chamfer"].as_str().unwrap_or(""),
-        l["conventions"]["s1"].as_str().unwrap_or(""),
-        l["conventions"]["s2"].as_str().unwrap_or(""),
-        l["conventions"]["false_alarm"].as_str().unwrap_or("")
+        c.chamfer, c.s1, c.s2, c.false_alarm
     )?;
     Ok(s)
 }

@@ -32,11 +32,13 @@
 
 pub mod chain;
 pub mod config;
+pub mod report;
 pub mod run;
 pub mod target;
 
 pub use chain::{Chain, ClutterMap, Cube, Detection, SlowTimeEca, Suppression};
 pub use config::{LocalizeOverrides, LocalizeSpec};
+pub use report::{improvement_pct, FrameReport, LocalizeReport};
 pub use run::{run_localize, FrameResult, LocalizeResult, ModeSummary};
 
 /// Why the localization run failed.

@@ -57,6 +57,7 @@ pub struct ModeSummary {
     /// √CD between the on-target detections and the truth, metres (`None`: no detection).
     pub sqrt_chamfer_m: Option<f64>,
     /// √CD with every detection of the searched volume (false alarms included), metres.
+    #[serde(rename = "sqrt_chamfer_all_detections_m")]
     pub sqrt_chamfer_all_m: Option<f64>,
     /// RMS distance from the on-target detections to the truth (accuracy), metres.
     pub accuracy_rms_m: Option<f64>,
