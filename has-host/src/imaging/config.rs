@@ -397,6 +397,31 @@ pub enum ScenarioError {
         /// What was expected.
         expected: &'static str,
     },
+    /// A position too far from the origin for coherent imaging in f32 ([`coherent_extent_m`]).
+    #[error(
+        "{field}: {value} lies {distance_m:.0} m from the origin; coherent imaging at λ = \
+         {wavelength_m:.4} m needs coordinates within ±{limit_m:.0} m (f32 rounds a coordinate x by \
+         up to |x|·2⁻²⁴, a phase error of 2π/64 at that limit): give positions in a local site frame"
+    )]
+    FarFromOrigin {
+        /// The field.
+        field: String,
+        /// The position given.
+        value: String,
+        /// Its largest coordinate magnitude, metres.
+        distance_m: f64,
+        /// [`coherent_extent_m`] at the scenario's wavelength.
+        limit_m: f64,
+        /// The wavelength, metres.
+        wavelength_m: f64,
+    },
+}
+
+/// The largest coordinate magnitude at which f32 positions keep back-projection phases within
+/// 2π/64: rounding a coordinate `x` to f32 moves it by at most `|x|·2⁻²⁴`, a range error of as
+/// much, so `|x| ≤ 2²⁴·λ/64 = 2¹⁸·λ` (7.9 km at 10 GHz). Sites are given in a local frame.
+pub fn coherent_extent_m(wavelength_m: f64) -> f64 {
+    wavelength_m * (1u64 << 18) as f64
 }
 
 fn invalid(
@@ -511,6 +536,41 @@ impl ImagingScenario {
         }
     }
 
+    /// Every sensor position and the region within [`coherent_extent_m`] of the origin.
+    fn check_extent(&self) -> Result<(), ScenarioError> {
+        let wavelength_m = self.wavelength_m();
+        let limit_m = coherent_extent_m(wavelength_m);
+        let im = &self.imaging;
+        let named = self
+            .base_stations
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (format!("base_stations[{i}].position"), b.position))
+            .chain(self.apertures.iter().enumerate().flat_map(|(i, a)| {
+                [
+                    (format!("apertures[{i}].start"), a.start),
+                    (format!("apertures[{i}].end"), a.end),
+                ]
+            }))
+            .chain([
+                ("imaging.region_min".to_string(), im.region_min),
+                ("imaging.region_max".to_string(), im.region_max),
+            ]);
+        for (field, v) in named {
+            let distance_m = v.iter().fold(0.0f64, |m, &x| m.max((x as f64).abs()));
+            if distance_m > limit_m {
+                return Err(ScenarioError::FarFromOrigin {
+                    field,
+                    value: format!("{v:?}"),
+                    distance_m,
+                    limit_m,
+                    wavelength_m,
+                });
+            }
+        }
+        Ok(())
+    }
+
     /// Checks every value (names the first bad field).
     ///
     /// # Errors
@@ -620,6 +680,7 @@ impl ImagingScenario {
         let im = &self.imaging;
         check_pos3("imaging.region_min".into(), im.region_min)?;
         check_pos3("imaging.region_max".into(), im.region_max)?;
+        self.check_extent()?;
         for k in 0..3 {
             if im.region_max[k] <= im.region_min[k] {
                 return Err(invalid(
@@ -901,4 +962,54 @@ fn segments_cross(a: [f32; 2], b: [f32; 2], c: [f32; 2], d: [f32; 2]) -> bool {
     let (d1, d2) = (orient(c, d, a), orient(c, d, b));
     let (d3, d4) = (orient(a, b, c), orient(a, b, d));
     (d1 > 0.0) != (d2 > 0.0) && (d3 > 0.0) != (d4 > 0.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn factory() -> ImagingScenario {
+        ImagingScenario::from_toml_str(include_str!("../../../fixtures/factory.toml")).unwrap()
+    }
+
+    #[test]
+    fn the_coherent_extent_keeps_f32_rounding_within_a_64th_of_a_wavelength() {
+        let lambda = 0.03;
+        let limit = coherent_extent_m(lambda);
+        // The worst rounding at the limit, |x|·2⁻²⁴, is λ/64.
+        assert!((limit * 2f64.powi(-24) - lambda / 64.0).abs() < 1e-12);
+        // And an f32 coordinate just inside it rounds by no more.
+        let x = (limit * 0.999) as f32;
+        let err = ((limit * 0.999) - x as f64).abs();
+        assert!(err <= lambda / 64.0, "{err}");
+    }
+
+    #[test]
+    fn a_site_in_georeferenced_coordinates_is_refused_naming_the_field_and_the_limit() {
+        let mut sc = factory();
+        sc.base_stations[1].position[1] += 5.0e6;
+        let e = sc.validate().unwrap_err().to_string();
+        assert!(e.starts_with("base_stations[1].position:"), "{e}");
+        let limit = format!("±{:.0} m", coherent_extent_m(sc.wavelength_m()));
+        assert!(e.contains(&limit) && e.contains("local site frame"), "{e}");
+        let mut sc = factory();
+        sc.imaging.region_max[0] += 9.0e3;
+        let e = sc.validate().unwrap_err().to_string();
+        assert!(e.starts_with("imaging.region_max:"), "{e}");
+    }
+
+    #[test]
+    fn a_site_a_few_kilometres_from_the_origin_is_accepted() {
+        let mut sc = factory();
+        for b in &mut sc.base_stations {
+            b.position[0] += 2000.0;
+        }
+        for a in &mut sc.apertures {
+            a.start[0] += 2000.0;
+            a.end[0] += 2000.0;
+        }
+        sc.imaging.region_min[0] += 2000.0;
+        sc.imaging.region_max[0] += 2000.0;
+        sc.validate().unwrap();
+    }
 }
