@@ -211,6 +211,15 @@ impl CloudMetrics {
         })
     }
 
+    /// S1 scored against S2: [`CloudComparison::new`] then [`CloudMetrics::new`] with both
+    /// sets' sizes.
+    ///
+    /// # Errors
+    /// As [`CloudComparison::new`].
+    pub fn between(s1: &[Vec3], s2: &[Vec3]) -> Result<CloudMetrics, GeometryError> {
+        CloudMetrics::new(&CloudComparison::new(s1, s2)?, s1.len(), s2.len())
+    }
+
     /// The F-scores at [`REPORT_THRESHOLDS_M`], in that order.
     pub fn fscores(&self) -> [FScore; 3] {
         let f = &self.fscores;
@@ -562,6 +571,22 @@ mod tests {
         // The thresholds straddle the plane offset, so the three scores differ.
         let [a, _, b] = m.fscores();
         assert!(a.fscore_pct < b.fscore_pct);
+    }
+
+    #[test]
+    fn metrics_between_two_sets_count_each_set_and_score_s1_against_s2() {
+        // S1 = {0}, S2 = {0, 2 m along x} (as in `chamfer_is_asymmetric_in_means_as_eq2`):
+        // precision(1 m) 100, recall(1 m) 50; the counts are |S1| = 1 and |S2| = 2.
+        let s1 = [Vec3::ZERO];
+        let s2 = [Vec3::ZERO, Vec3::new(2.0, 0.0, 0.0)];
+        let m = CloudMetrics::between(&s1, &s2).unwrap();
+        assert_eq!((m.points, m.truth_points), (1, 2));
+        assert_eq!(
+            (m.fscores.precision_1_0m, m.fscores.recall_1_0m),
+            (100.0, 50.0)
+        );
+        assert_eq!(m.rms_to_truth_m, 0.0);
+        assert!(CloudMetrics::between(&[], &s2).is_err());
     }
 
     /// Points on a regular n×n grid of spacing `s` on the plane z = `z`.

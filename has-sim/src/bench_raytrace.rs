@@ -94,6 +94,28 @@ impl BenchRow {
     }
 }
 
+/// The benchmark city of a `bench raytrace` run.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct BenchScene {
+    /// Triangles.
+    pub triangles: usize,
+    /// Objects (the ground and the buildings).
+    pub objects: usize,
+    /// Ground heightfield cells per side.
+    pub cells: u32,
+    /// Seed of the scene and rays.
+    pub seed: u64,
+}
+
+/// `bench raytrace --json`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RaytraceReport {
+    /// The scene.
+    pub scene: BenchScene,
+    /// The measurements, in table order.
+    pub rows: Vec<BenchRow>,
+}
+
 /// Process CPU time (user + system), seconds, from `/proc/self/stat` (Linux; clock ticks assumed
 /// 100 Hz, the Linux `USER_HZ`). On a shared machine wall time includes waiting for a core; CPU
 /// time does not, so `count / cpu_seconds` is the throughput per busy core.
@@ -361,15 +383,16 @@ fn raytrace(a: &RaytraceArgs) -> anyhow::Result<()> {
         a.seed,
     )?);
     if a.json {
-        let v = serde_json::json!({
-            "scene": {
-                "triangles": scene.triangle_count(),
-                "objects": scene.objects.len(),
-                "cells": a.cells,
-                "seed": a.seed,
+        let report = RaytraceReport {
+            scene: BenchScene {
+                triangles: scene.triangle_count(),
+                objects: scene.objects.len(),
+                cells: a.cells,
+                seed: a.seed,
             },
-            "rows": rows,
-        });
+            rows,
+        };
+        let v = serde_json::to_value(&report)?;
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
         println!(

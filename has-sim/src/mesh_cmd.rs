@@ -3,17 +3,15 @@
 //! feature, against the crates.io `poisson_reconstruction` crate on the same oriented points.
 
 use std::path::{Path, PathBuf};
-use std::time::Instant;
 
 use anyhow::{bail, Context};
 use glam::Vec3;
 use has_host::io::{ply, PlyData, PlyFormat};
-use has_host::mesh::{
-    estimate_normals, reconstruct_oriented, Orientation, PoissonParams, ReconstructParams, TriMesh,
-    Trim,
-};
-use has_host::metrics::{CloudComparison, REPORT_THRESHOLDS_M};
+use has_host::mesh::{PoissonParams, ReconstructParams, Topology, TriMesh, Trim};
+use has_host::meshing::{self, MeshingOptions, MeshingReport};
+use has_host::metrics::CloudMetrics;
 use has_host::Material;
+use serde::Serialize;
 
 /// Options of the `mesh` subcommand.
 #[derive(clap::Args, Debug)]
@@ -123,36 +121,17 @@ pub struct MeshArgs {
     pub report: Option<PathBuf>,
 }
 
-fn metrics_json(s1: &[Vec3], truth: &[Vec3]) -> anyhow::Result<serde_json::Value> {
-    let c = CloudComparison::new(s1, truth)?;
-    let mut f = serde_json::Map::new();
-    for d in REPORT_THRESHOLDS_M {
-        let s = c.fscore(d)?;
-        f.insert(format!("fscore_{d}m"), serde_json::json!(s));
-    }
-    Ok(serde_json::json!({
-        "points": s1.len(),
-        "sqrt_chamfer_m": c.sqrt_chamfer_m(),
-        "rms_to_truth_m": c.rms_s1_to_s2_m(),
-        "rms_from_truth_m": c.rms_s2_to_s1_m(),
-        "fscores": f,
-    }))
-}
-
-fn summary_line(name: &str, m: &serde_json::Value) -> String {
-    let f = |d: &str| {
-        m["fscores"][format!("fscore_{d}m")]["fscore_pct"]
-            .as_f64()
-            .unwrap_or(f64::NAN)
-    };
+/// One line of figures: √CD, rms to / from the truth, F-scores at the report thresholds.
+fn summary_line(name: &str, m: &CloudMetrics) -> String {
+    let f = &m.fscores;
     format!(
         "{name:<28} √CD {:>7.3} m (rms to/from truth {:.3}/{:.3})   F(0.5 m) {:>6.2}   F(1.0 m) {:>6.2}   F(1.5 m) {:>6.2}",
-        m["sqrt_chamfer_m"].as_f64().unwrap_or(f64::NAN),
-        m["rms_to_truth_m"].as_f64().unwrap_or(f64::NAN),
-        m["rms_from_truth_m"].as_f64().unwrap_or(f64::NAN),
-        f("0.5"),
-        f("1"),
-        f("1.5")
+        m.sqrt_chamfer_m,
+        m.rms_to_truth_m,
+        m.rms_from_truth_m,
+        f.fscore_0_5m,
+        f.fscore_1_0m,
+        f.fscore_1_5m
     )
 }
 
@@ -214,6 +193,34 @@ pub fn write_mesh(
     Ok(())
 }
 
+/// What weighed the samples.
+#[derive(Clone, Debug, Serialize)]
+pub struct WeightsUsed {
+    /// The input's vertex property.
+    pub property: String,
+    /// Its exponent.
+    pub power: f32,
+}
+
+/// The `--report` of `mesh`: the library's report with what only the command knows.
+#[derive(Clone, Debug, Serialize)]
+pub struct MeshRunReport {
+    /// The input cloud.
+    pub input: PathBuf,
+    /// The sample weights, if any.
+    pub weights: Option<WeightsUsed>,
+    /// Peak resident memory of the process, MiB.
+    pub peak_rss_mib: Option<f64>,
+    /// Peak resident memory right after the Poisson stage, MiB.
+    pub peak_rss_after_poisson_mib: Option<f64>,
+    /// The same points meshed by the `poisson_reconstruction` crate (`--compare-crate`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub poisson_reconstruction_crate: Option<CrateReport>,
+    /// The meshing's figures.
+    #[serde(flatten)]
+    pub meshing: MeshingReport,
+}
+
 /// Runs the subcommand.
 pub fn run(a: MeshArgs) -> anyhow::Result<()> {
     if let Some(q) = a.trim {
@@ -225,6 +232,9 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         if !(f > 0.0 && f <= 1.0) {
             bail!("--trim-median: {f} is not a fraction in (0, 1]");
         }
+    }
+    if !(a.weight_power.is_finite() && a.weight_power >= 0.0) {
+        bail!("--weight-power: {} is not finite and >= 0", a.weight_power);
     }
     let rule = match (a.trim, a.trim_median) {
         (Some(q), _) => Some(Trim::Quantile(q)),
@@ -244,8 +254,7 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         }
         None => None,
     };
-    let points = input.vertices.clone();
-    let t0 = Instant::now();
+    let points = &input.vertices;
     let stored = match (
         input.property("nx"),
         input.property("ny"),
@@ -260,27 +269,6 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         ),
         _ => None,
     };
-    let normals = match stored {
-        Some(n) if !a.estimate_normals => n,
-        Some(n) => {
-            // A virtual sensor one metre along each stored normal orients the new one.
-            let toward: Vec<Vec3> = points.iter().zip(&n).map(|(&p, &n)| p + n).collect();
-            estimate_normals(&points, a.k, Orientation::Sensors(&toward))
-                .with_context(|| format!("{}: normals", a.input.display()))?
-        }
-        None => estimate_normals(&points, a.k, Orientation::Propagate)
-            .with_context(|| format!("{}: normals", a.input.display()))?,
-    };
-    let normals_s = t0.elapsed().as_secs_f64();
-    let params = PoissonParams {
-        depth: a.depth,
-        screening: a.screening,
-        band: (!a.full_grid).then_some(a.band),
-        dense_max_nodes: a.dense_max_nodes,
-        cell_m: a.cell,
-        ..PoissonParams::default()
-    };
-    let t1 = Instant::now();
     let column = match (&a.weights, a.unweighted) {
         (Some(name), _) => Some(input.property(name).with_context(|| {
             format!(
@@ -291,107 +279,129 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         (None, false) => input.property("intensity"),
         (None, true) => None,
     };
-    if !(a.weight_power.is_finite() && a.weight_power >= 0.0) {
-        bail!("--weight-power: {} is not finite and >= 0", a.weight_power);
-    }
-    let weights: Option<Vec<f32>> =
-        column.map(|c| c.iter().map(|&w| w.powf(a.weight_power)).collect());
-    let clip_box = match (&a.clip_min, &a.clip_max) {
-        (Some(lo), Some(hi)) => Some((Vec3::from_slice(lo), Vec3::from_slice(hi))),
-        _ => None,
+    let params = PoissonParams {
+        depth: a.depth,
+        screening: a.screening,
+        band: (!a.full_grid).then_some(a.band),
+        dense_max_nodes: a.dense_max_nodes,
+        cell_m: a.cell,
+        ..PoissonParams::default()
     };
-    let rp = ReconstructParams {
-        normal_k: a.k,
-        poisson: params.clone(),
-        trim: rule,
-        clip_box,
-        support_distance_m: a.support_distance,
-        min_component_fraction: (a.min_component > 0.0).then_some(a.min_component),
+    let opts = MeshingOptions {
+        params: ReconstructParams {
+            normal_k: a.k,
+            poisson: params,
+            trim: rule,
+            clip_box: match (&a.clip_min, &a.clip_max) {
+                (Some(lo), Some(hi)) => Some((Vec3::from_slice(lo), Vec3::from_slice(hi))),
+                _ => None,
+            },
+            support_distance_m: a.support_distance,
+            min_component_fraction: (a.min_component > 0.0).then_some(a.min_component),
+        },
+        estimate_normals: a.estimate_normals,
+        weight_power: a.weight_power,
     };
     // The same stages, in the same order, as `reconstruct`'s mesh
     // ([`has_host::mesh::reconstruct_oriented`]).
-    let rec = reconstruct_oriented(&points, normals, weights.as_deref(), &rp)
-        .with_context(|| format!("{}: surface reconstruction", a.input.display()))?;
+    let mut meshed = meshing::mesh_cloud(points, stored, column, &opts)
+        .with_context(|| a.input.display().to_string())?;
     let peak_rss_poisson = crate::resources::peak_rss_mib();
-    let (mesh, out, normals) = (rec.mesh, rec.poisson, rec.normals);
-    let poisson_s = t1.elapsed().as_secs_f64();
-    let top = mesh.topology();
-    // Densities follow the vertices only for the untrimmed mesh.
-    let density = (rule.is_none()
-        && a.min_component == 0.0
-        && a.clip_min.is_none()
-        && a.support_distance.is_none()
-        && mesh.vertices.len() == out.mesh.vertices.len())
-    .then_some(out.vertex_density.as_slice());
-    write_mesh(&mesh, &a.out, a.ply.as_deref(), density)?;
+    write_mesh(
+        &meshed.mesh,
+        &a.out,
+        a.ply.as_deref(),
+        meshed.vertex_density(),
+    )?;
+    let (m, t) = (&meshed.report.mesh, &meshed.report.time_s);
     println!(
         "mesh: {} points → {} vertices, {} faces, cell {:.3} m, grid {:?}, watertight {}, manifold {}",
         points.len(),
-        mesh.vertex_count(),
-        mesh.face_count(),
-        out.cell_m,
-        out.dims,
-        top.watertight,
-        top.manifold
+        m.vertices,
+        m.faces,
+        m.cell_m,
+        m.grid_dims,
+        m.topology.watertight,
+        m.topology.manifold
     );
     println!(
-        "time: normals {normals_s:.2} s, solve {:.2} s, extract {:.2} s, total Poisson {poisson_s:.2} s",
-        out.solve_s, out.extract_s
+        "time: normals {:.2} s, solve {:.2} s, extract {:.2} s, total Poisson {:.2} s",
+        t.normals, t.solve, t.extract, t.poisson_total
     );
-    let mut report = serde_json::json!({
-        "input": a.input,
-        "points": points.len(),
-        "params": params,
-        "trim": rule,
-        "weights": column.map(|_| serde_json::json!({
-            "property": a.weights.as_deref().unwrap_or("intensity"),
-            "power": a.weight_power,
-        })),
-        "mesh": {
-            "vertices": mesh.vertex_count(),
-            "faces": mesh.face_count(),
-            "topology": top,
-            "area_m2": mesh.area_m2(),
-            "cell_m": out.cell_m,
-            "grid_dims": out.dims,
-            "iso_value": out.iso_value,
-            "levels": out.levels,
-        },
-        "peak_rss_mib": crate::resources::peak_rss_mib(),
-        "peak_rss_after_poisson_mib": peak_rss_poisson,
-        "time_s": {"normals": normals_s, "solve": out.solve_s, "extract": out.extract_s, "poisson_total": poisson_s},
-    });
     if let Some(truth) = &truth {
-        let cloud = metrics_json(&points, truth)?;
-        let s1 = mesh.sample(a.truth_density, 2)?;
-        let m = metrics_json(&s1, truth)?;
-        println!("{}", summary_line("input cloud", &cloud));
-        println!("{}", summary_line("mesh (has)", &m));
-        report["truth_points"] = serde_json::json!(truth.len());
-        report["metrics"] = serde_json::json!({"cloud": cloud, "mesh": m, "mesh_sample_density_per_m2": a.truth_density});
-        if rule.is_some() {
-            let u = metrics_json(&out.mesh.sample(a.truth_density, 2)?, truth)?;
-            println!("{}", summary_line("mesh (has), untrimmed", &u));
-            report["metrics"]["mesh_untrimmed"] = u;
+        let s = meshed.score(points, truth, a.truth_density)?;
+        println!("{}", summary_line("input cloud", &s.cloud));
+        println!("{}", summary_line("mesh (has)", &s.mesh));
+        if let Some(u) = &s.mesh_untrimmed {
+            println!("{}", summary_line("mesh (has), untrimmed", u));
         }
     }
-    if a.compare_crate {
-        let c = compare_crate(
-            &points,
-            &normals,
+    let crate_report = if a.compare_crate {
+        Some(compare_crate(
+            points,
+            &meshed.normals,
             a.depth,
             truth.as_deref(),
             a.truth_density,
-            rule.map(|r| (r, params.density_k)),
-        )?;
-        report["poisson_reconstruction_crate"] = c;
-    }
+            rule.map(|r| (r, opts.params.poisson.density_k)),
+        )?)
+    } else {
+        None
+    };
+    let report = MeshRunReport {
+        input: a.input.clone(),
+        weights: column.map(|_| WeightsUsed {
+            property: a.weights.as_deref().unwrap_or("intensity").to_string(),
+            power: a.weight_power,
+        }),
+        peak_rss_mib: crate::resources::peak_rss_mib(),
+        peak_rss_after_poisson_mib: peak_rss_poisson,
+        poisson_reconstruction_crate: crate_report,
+        meshing: meshed.report,
+    };
     if let Some(r) = &a.report {
-        let text = serde_json::to_string_pretty(&report)? + "\n";
+        let text = serde_json::to_string_pretty(&serde_json::to_value(&report)?)? + "\n";
         has_host::io::atomic_write(r, |w| std::io::Write::write_all(w, text.as_bytes()))
             .with_context(|| format!("{}: writing report", r.display()))?;
     }
     Ok(())
+}
+
+/// How the `poisson_reconstruction` crate was called.
+#[derive(Clone, Debug, Serialize)]
+pub struct CrateParams {
+    /// Screening weight.
+    pub screening: f64,
+    /// Depth of its density estimation.
+    pub density_estimation_depth: usize,
+    /// Its `max_depth` (our depth).
+    pub max_depth: usize,
+    /// Its relaxation iterations.
+    pub max_relaxation_iters: usize,
+}
+
+/// The `poisson_reconstruction` crate's mesh of the same oriented points (`--compare-crate`).
+#[derive(Clone, Debug, Serialize)]
+pub struct CrateReport {
+    /// Vertices.
+    pub vertices: usize,
+    /// Faces.
+    pub faces: usize,
+    /// Edge-use counts.
+    pub topology: Topology,
+    /// Its time, seconds.
+    pub time_s: f64,
+    /// How it was called.
+    pub params: CrateParams,
+    /// Its closed surface against the truth.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub metrics_untrimmed: Option<CloudMetrics>,
+    /// With the same trim rule as ours, against the truth.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub metrics: Option<CloudMetrics>,
+    /// Faces left by that trim.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub trimmed_faces: Option<usize>,
 }
 
 #[cfg(not(feature = "poisson-crate"))]
@@ -402,7 +412,7 @@ fn compare_crate(
     _: Option<&[Vec3]>,
     _: f64,
     _: Option<(Trim, usize)>,
-) -> anyhow::Result<serde_json::Value> {
+) -> anyhow::Result<CrateReport> {
     bail!("--compare-crate: has-sim was built without the `poisson-crate` feature (cargo build --features poisson-crate)")
 }
 
@@ -418,7 +428,7 @@ fn compare_crate(
     truth: Option<&[Vec3]>,
     density: f64,
     trim_rule: Option<(Trim, usize)>,
-) -> anyhow::Result<serde_json::Value> {
+) -> anyhow::Result<CrateReport> {
     use poisson_reconstruction::PoissonReconstruction;
     let p: Vec<nalgebra::Point3<f64>> = points
         .iter()
@@ -431,7 +441,7 @@ fn compare_crate(
             nalgebra::Vector3::new(v.x as f64, v.y as f64, v.z as f64)
         })
         .collect();
-    let t = Instant::now();
+    let t = std::time::Instant::now();
     let d = depth as usize;
     let rec =
         PoissonReconstruction::from_points_and_normals(&p, &n, 0.0, d.saturating_sub(2), d, 10);
@@ -457,25 +467,32 @@ fn compare_crate(
         top.watertight,
         top.manifold
     );
-    let mut out = serde_json::json!({
-        "vertices": mesh.vertex_count(),
-        "faces": mesh.face_count(),
-        "topology": top,
-        "time_s": secs,
-        "params": {"screening": 0.0, "density_estimation_depth": d.saturating_sub(2), "max_depth": d, "max_relaxation_iters": 10},
-    });
+    let mut out = CrateReport {
+        vertices: mesh.vertex_count(),
+        faces: mesh.face_count(),
+        topology: top,
+        time_s: secs,
+        params: CrateParams {
+            screening: 0.0,
+            density_estimation_depth: d.saturating_sub(2),
+            max_depth: d,
+            max_relaxation_iters: 10,
+        },
+        metrics_untrimmed: None,
+        metrics: None,
+        trimmed_faces: None,
+    };
     if let Some(truth) = truth {
-        let s1 = mesh.sample(density, 2)?;
-        let m = metrics_json(&s1, truth)?;
+        let m = meshing::score_mesh(&mesh, truth, density)?;
         println!("{}", summary_line("mesh (crate), untrimmed", &m));
-        out["metrics_untrimmed"] = m;
+        out.metrics_untrimmed = Some(m);
         if let Some((rule, k)) = trim_rule {
             let d = has_host::mesh::support_density(points, &mesh.vertices, k)?;
-            let t = trim(&mesh, &d, rule)?;
-            let m = metrics_json(&t.sample(density, 2)?, truth)?;
+            let t = has_host::mesh::trim(&mesh, &d, rule)?;
+            let m = meshing::score_mesh(&t, truth, density)?;
             println!("{}", summary_line("mesh (crate), same trim", &m));
-            out["metrics"] = m;
-            out["trimmed_faces"] = serde_json::json!(t.face_count());
+            out.metrics = Some(m);
+            out.trimmed_faces = Some(t.face_count());
         }
     }
     Ok(out)

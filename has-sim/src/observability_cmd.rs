@@ -2,16 +2,14 @@
 //! scenario could observe, before imaging anything — the planning question behind "which BS
 //! pairs with which aperture follows from visibility" and the ceiling of a reconstruction.
 //!
-//! A truth point counts as observed by a pair when it sees the pair's panel centre and at least
-//! one of its aperture's start, centre and end ([`imaging::observable_truth`], the same test as
-//! the observable / hidden split of `reconstruct`'s report). Percentages are of the ground-truth
-//! samples (`imaging.truth_density_per_m2` on the `imaging.truth_objects`), i.e. of the area.
+//! The figures are [`has_host::observability`]'s (which states the line-of-sight test and what the
+//! percentages count); this command prints them as a table or as JSON.
 
 use std::path::PathBuf;
 
 use anyhow::Result;
-use has_host::imaging::{self, PairPlan};
-use serde_json::json;
+use has_host::observability::{observability, ObservabilityReport};
+use serde::Serialize;
 
 use crate::reconstruct_cmd::load_scenario;
 
@@ -25,68 +23,45 @@ pub struct ObservabilityArgs {
     pub json: bool,
 }
 
+/// The `--json` output: the library's report and the scenario's name.
+#[derive(Serialize)]
+struct JsonReport<'a> {
+    scenario: &'a str,
+    #[serde(flatten)]
+    report: &'a ObservabilityReport,
+}
+
 /// Runs the command.
 pub fn run(args: ObservabilityArgs) -> Result<()> {
     let (sc, name) = load_scenario(args.scenario.as_deref())?;
-    let world = imaging::build_world(&sc)?;
-    let planned = imaging::plan_pairs(&sc)?;
-    let every = imaging::every_pairing(&sc);
-    let is_planned = |p: &PairPlan| {
-        planned
-            .iter()
-            .any(|q| q.bs == p.bs && q.aperture == p.aperture)
-    };
-    // One line-of-sight pass per pairing; the unions are ORs of those.
-    let seen: Vec<Vec<bool>> = every
-        .iter()
-        .map(|p| imaging::observable_truth(&sc, &world, std::slice::from_ref(p)))
-        .collect();
-    let union = |keep: &dyn Fn(&PairPlan) -> bool| -> f64 {
-        let mut any = vec![false; world.truth.len()];
-        for (_, s) in every.iter().zip(&seen).filter(|(p, _)| keep(p)) {
-            any.iter_mut().zip(s).for_each(|(a, &b)| *a |= b);
-        }
-        imaging::share_pct(&any)
-    };
-    let single: Vec<f64> = seen.iter().map(|s| imaging::share_pct(s)).collect();
-    let imaged_pct = union(&is_planned);
-    let every_pct = union(&|_| true);
+    let r = observability(&sc)?;
     if args.json {
-        let pairs: Vec<_> = every
-            .iter()
-            .zip(&single)
-            .map(|(p, &s)| json!({"pair": p.name, "observed_pct": s, "imaged": is_planned(p)}))
-            .collect();
-        let report = json!({
-            "scenario": name,
-            "truth_points": world.truth.len(),
-            "pairs": pairs,
-            "imaged_pairs_pct": imaged_pct,
-            "every_pairing_pct": every_pct,
-        });
-        println!("{}", serde_json::to_string_pretty(&report)?);
+        let v = serde_json::to_value(JsonReport {
+            scenario: &name,
+            report: &r,
+        })?;
+        println!("{}", serde_json::to_string_pretty(&v)?);
         return Ok(());
     }
     println!(
         "{name}: share of the true surface ({} samples) each pairing observes; * the pairs \
          `reconstruct` images",
-        world.truth.len()
+        r.truth_points
     );
-    let bs_names: Vec<&str> = sc.base_stations.iter().map(|b| b.name.as_str()).collect();
     print!("{:<10}", "aperture");
-    for b in &bs_names {
-        print!("{b:>10}");
+    for b in &sc.base_stations {
+        print!("{:>10}", b.name);
     }
     println!();
     for (ai, ap) in sc.apertures.iter().enumerate() {
         print!("{:<10}", ap.name);
-        for (p, s) in every.iter().zip(&single).filter(|(p, _)| p.aperture == ai) {
-            let mark = if is_planned(p) { "*" } else { " " };
-            print!("{:>9}{mark}", format!("{s:.1} %"));
+        for p in r.pairs.iter().filter(|p| p.aperture == ai) {
+            let mark = if p.imaged { "*" } else { " " };
+            print!("{:>9}{mark}", format!("{:.1} %", p.observed_pct));
         }
         println!();
     }
-    println!("imaged pairs together:  {imaged_pct:.1} %");
-    println!("every pairing together: {every_pct:.1} %");
+    println!("imaged pairs together:  {:.1} %", r.imaged_pairs_pct);
+    println!("every pairing together: {:.1} %", r.every_pairing_pct);
     Ok(())
 }

@@ -5,7 +5,8 @@
 use std::path::PathBuf;
 
 use glam::DVec3;
-use has_host::paths::{CandidateMode, Path, PathError, Tracer, TracerConfig};
+use has_host::paths::{CandidateMode, Path, PathError, PathRecord, Tracer, TracerConfig};
+use serde::Serialize;
 
 /// Arguments of `has-sim paths`.
 #[derive(clap::Args, Debug)]
@@ -64,60 +65,35 @@ pub fn parse_point(flag: &str, s: &str) -> anyhow::Result<DVec3> {
     Ok(DVec3::from_array(v))
 }
 
-/// A JSON number, or `null` if not finite (e.g. the gain of a zero amplitude).
-fn num(x: f64) -> String {
-    if x.is_finite() {
-        serde_json::Value::from(x).to_string()
-    } else {
-        "null".into()
-    }
+/// `has-sim paths --json` for one receiver: `{"paths":[…]}`, each path a
+/// [`has_host::paths::PathRecord`] (keys in its documented order: `delay_ns, gain_db, phase_rad,
+/// aod_deg, zod_deg, aoa_deg, zoa_deg, interactions, objects, points`; per interaction its kind,
+/// the name of the object it meets and its point `[x, y, z]` in metres, `null` for line of sight).
+#[derive(Serialize)]
+pub struct PathsJson<'a> {
+    /// The paths, by delay.
+    pub paths: Vec<PathRecord<'a>>,
 }
 
-/// One path as the JSON object of `has-sim paths --json`, keys in the documented order:
-/// `delay_ns, gain_db, phase_rad, aod_deg, zod_deg, aoa_deg, zoa_deg, interactions, objects,
-/// points` — per interaction its kind, the name of the object it meets (`null` for line of
-/// sight; `objects[i]` names scene object `i`) and its point `[x, y, z]` in metres (`null` for
-/// line of sight).
-pub fn path_json(p: &Path, objects: &[String]) -> String {
-    use has_host::paths::Interaction;
-    let kinds: Vec<String> = p
-        .interactions
-        .iter()
-        .map(|i| format!("\"{}\"", i.kind()))
-        .collect();
-    let (names, points): (Vec<String>, Vec<String>) = p
-        .interactions
-        .iter()
-        .map(|i| match i {
-            Interaction::Reflection { object, point, .. }
-            | Interaction::Diffraction { object, point } => (
-                objects.get(*object as usize).map_or("null".into(), |n| {
-                    serde_json::Value::from(n.as_str()).to_string()
-                }),
-                format!("[{},{},{}]", num(point.x), num(point.y), num(point.z)),
-            ),
-            Interaction::Los => ("null".into(), "null".into()),
-        })
-        .unzip();
-    format!(
-        "{{\"delay_ns\":{},\"gain_db\":{},\"phase_rad\":{},\"aod_deg\":{},\"zod_deg\":{},\"aoa_deg\":{},\"zoa_deg\":{},\"interactions\":[{}],\"objects\":[{}],\"points\":[{}]}}",
-        num(p.delay_s * 1e9),
-        num(p.gain_db()),
-        num(p.a.arg()),
-        num(p.aod.to_degrees()),
-        num(p.zod.to_degrees()),
-        num(p.aoa.to_degrees()),
-        num(p.zoa.to_degrees()),
-        kinds.join(","),
-        names.join(","),
-        points.join(",")
-    )
+/// One receiver of `--rx-file`: its position and its paths.
+#[derive(Serialize)]
+pub struct ReceiverJson<'a> {
+    /// The receiver, metres.
+    pub rx: [f64; 3],
+    /// Its paths, by delay.
+    pub paths: Vec<PathRecord<'a>>,
 }
 
-/// `{"paths":[…]}` for a set of paths; `objects` names the scene's objects.
-pub fn paths_json(paths: &[Path], objects: &[String]) -> String {
-    let items: Vec<String> = paths.iter().map(|p| path_json(p, objects)).collect();
-    format!("{{\"paths\":[{}]}}", items.join(","))
+/// `has-sim paths --rx-file … --json`: `{"receivers":[{"rx":[x,y,z],"paths":[…]}, …]}`.
+#[derive(Serialize)]
+pub struct ReceiversJson<'a> {
+    /// Per receiver, in the file's order.
+    pub receivers: Vec<ReceiverJson<'a>>,
+}
+
+/// The records of `paths`; `objects` names the scene's objects.
+pub fn records<'a>(paths: &[Path], objects: &'a [String]) -> Vec<PathRecord<'a>> {
+    paths.iter().map(|p| p.record(objects)).collect()
 }
 
 /// A tracer result with its error prefixed by the flag it is about (the library names its
@@ -213,26 +189,24 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
     }
     let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
     if args.json {
-        if args.rx.is_some() {
-            println!("{}", paths_json(&all[0], &names));
+        // Compact, keys in the records' order (not through `serde_json::Value`, which sorts).
+        let text = if args.rx.is_some() {
+            serde_json::to_string(&PathsJson {
+                paths: records(&all[0], &names),
+            })?
         } else {
-            let items: Vec<String> = rxs
-                .iter()
-                .zip(&all)
-                .map(|(rx, paths)| {
-                    // `{"paths":[…]}` without its braces, after the receiver.
-                    let pj = paths_json(paths, &names);
-                    format!(
-                        "{{\"rx\":[{},{},{}],{}}}",
-                        num(rx.x),
-                        num(rx.y),
-                        num(rx.z),
-                        &pj[1..pj.len() - 1]
-                    )
-                })
-                .collect();
-            println!("{{\"receivers\":[{}]}}", items.join(","));
-        }
+            serde_json::to_string(&ReceiversJson {
+                receivers: rxs
+                    .iter()
+                    .zip(&all)
+                    .map(|(rx, paths)| ReceiverJson {
+                        rx: rx.to_array(),
+                        paths: records(paths, &names),
+                    })
+                    .collect(),
+            })?
+        };
+        println!("{text}");
         return Ok(());
     }
     let many = args.rx.is_none();
@@ -343,8 +317,16 @@ mod tests {
             }],
             ..p.clone()
         };
+        // A zero amplitude has no finite gain: written as null.
+        let silent = Path {
+            a: num_complex::Complex64::new(0.0, 0.0),
+            ..p.clone()
+        };
         let names = ["ground".to_string(), "wall \"A\"".to_string()];
-        let s = paths_json(&[p, wall], &names);
+        let s = serde_json::to_string(&PathsJson {
+            paths: records(&[p, wall, silent], &names),
+        })
+        .unwrap();
         let v: serde_json::Value = serde_json::from_str(&s).unwrap();
         let o = &v["paths"][0];
         assert!((o["delay_ns"].as_f64().unwrap() - 100.0).abs() < 1e-9);
@@ -355,7 +337,14 @@ mod tests {
         let r = &v["paths"][1];
         assert_eq!(r["interactions"][0], "reflection");
         assert_eq!(r["objects"][0], "wall \"A\"");
-        assert_eq!(r["points"][0], serde_json::json!([1.0, -2.5, 3.0]));
+        let point: Vec<f64> = r["points"][0]
+            .as_array()
+            .unwrap()
+            .iter()
+            .map(|x| x.as_f64().unwrap())
+            .collect();
+        assert_eq!(point, [1.0, -2.5, 3.0]);
+        assert!(v["paths"][2]["gain_db"].is_null(), "{s}");
         let keys = [
             "delay_ns",
             "gain_db",
