@@ -536,8 +536,13 @@ impl ImagingScenario {
         }
     }
 
-    /// Every sensor position and the region within [`coherent_extent_m`] of the origin.
-    fn check_extent(&self) -> Result<(), ScenarioError> {
+    /// Every sensor position and the region within [`coherent_extent_m`] of the origin at the
+    /// scenario's wavelength. [`super::build_world`] checks it once the carrier is known to lie
+    /// in the scene's materials' range.
+    ///
+    /// # Errors
+    /// [`ScenarioError::FarFromOrigin`] naming the first position beyond it.
+    pub fn check_extent(&self) -> Result<(), ScenarioError> {
         let wavelength_m = self.wavelength_m();
         let limit_m = coherent_extent_m(wavelength_m);
         let im = &self.imaging;
@@ -680,7 +685,6 @@ impl ImagingScenario {
         let im = &self.imaging;
         check_pos3("imaging.region_min".into(), im.region_min)?;
         check_pos3("imaging.region_max".into(), im.region_max)?;
-        self.check_extent()?;
         for k in 0..3 {
             if im.region_max[k] <= im.region_min[k] {
                 return Err(invalid(
@@ -988,13 +992,13 @@ mod tests {
     fn a_site_in_georeferenced_coordinates_is_refused_naming_the_field_and_the_limit() {
         let mut sc = factory();
         sc.base_stations[1].position[1] += 5.0e6;
-        let e = sc.validate().unwrap_err().to_string();
+        let e = sc.check_extent().unwrap_err().to_string();
         assert!(e.starts_with("base_stations[1].position:"), "{e}");
         let limit = format!("±{:.0} m", coherent_extent_m(sc.wavelength_m()));
         assert!(e.contains(&limit) && e.contains("local site frame"), "{e}");
         let mut sc = factory();
         sc.imaging.region_max[0] += 9.0e3;
-        let e = sc.validate().unwrap_err().to_string();
+        let e = sc.check_extent().unwrap_err().to_string();
         assert!(e.starts_with("imaging.region_max:"), "{e}");
     }
 
@@ -1011,5 +1015,6 @@ mod tests {
         sc.imaging.region_min[0] += 2000.0;
         sc.imaging.region_max[0] += 2000.0;
         sc.validate().unwrap();
+        sc.check_extent().unwrap();
     }
 }

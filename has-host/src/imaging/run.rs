@@ -74,6 +74,9 @@ pub enum RunError {
     /// Imaging failed.
     #[error(transparent)]
     Imaging(#[from] ImagingError),
+    /// A scenario value the scene makes invalid (a site too far from the origin).
+    #[error(transparent)]
+    Scenario(#[from] super::config::ScenarioError),
     /// Echo synthesis refused the scatterer model.
     #[error("scatterers: {0}")]
     Echo(#[from] crate::echo::EchoError),
@@ -252,6 +255,7 @@ pub fn build_world(sc: &ImagingScenario) -> Result<World, RunError> {
             hi_ghz: hi,
         });
     }
+    sc.check_extent()?;
     let sensors = sc
         .base_stations
         .iter()
