@@ -1,13 +1,12 @@
 //! `has-sim mesh`: point cloud (PLY) → oriented normals → screened Poisson → OBJ (+ PLY) mesh,
-//! with an optional comparison against a ground truth and, when built with the `poisson-crate`
-//! feature, against the crates.io `poisson_reconstruction` crate on the same oriented points.
+//! with an optional comparison against a ground truth.
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context};
 use glam::Vec3;
 use has_host::io::{ply, PlyData, PlyFormat};
-use has_host::mesh::{PoissonParams, ReconstructParams, Topology, TriMesh, Trim};
+use has_host::mesh::{PoissonParams, ReconstructParams, TriMesh, Trim};
 use has_host::meshing::{self, MeshingOptions, MeshingReport};
 use has_host::metrics::CloudMetrics;
 use has_host::Material;
@@ -99,10 +98,6 @@ pub struct MeshArgs {
     /// scenario's `imaging.truth_density_per_m2` default, as `reconstruct` scores its mesh).
     #[arg(long, default_value_t = has_host::imaging::config::DEFAULT_TRUTH_DENSITY_PER_M2)]
     pub truth_density: f64,
-    /// Also mesh the same oriented points with the crates.io `poisson_reconstruction` crate
-    /// (needs the `poisson-crate` feature) and report its quality and time.
-    #[arg(long)]
-    pub compare_crate: bool,
     /// Weight each sample by this vertex property of the input, raised to `--weight-power`: weak
     /// samples carry less normal flux, screening and density
     /// ([`has_host::mesh::screened_poisson_weighted`]). Default: `intensity` when the input has
@@ -213,9 +208,6 @@ pub struct MeshRunReport {
     pub peak_rss_mib: Option<f64>,
     /// Peak resident memory right after the Poisson stage, MiB.
     pub peak_rss_after_poisson_mib: Option<f64>,
-    /// The same points meshed by the `poisson_reconstruction` crate (`--compare-crate`).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub poisson_reconstruction_crate: Option<CrateReport>,
     /// The meshing's figures.
     #[serde(flatten)]
     pub meshing: MeshingReport,
@@ -336,18 +328,6 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
             println!("{}", summary_line("mesh (has), untrimmed", u));
         }
     }
-    let crate_report = if a.compare_crate {
-        Some(compare_crate(
-            points,
-            &meshed.normals,
-            a.depth,
-            truth.as_deref(),
-            a.truth_density,
-            rule.map(|r| (r, opts.params.poisson.density_k)),
-        )?)
-    } else {
-        None
-    };
     let report = MeshRunReport {
         input: a.input.clone(),
         weights: column.map(|_| WeightsUsed {
@@ -356,7 +336,6 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
         }),
         peak_rss_mib: crate::resources::peak_rss_mib(),
         peak_rss_after_poisson_mib: peak_rss_poisson,
-        poisson_reconstruction_crate: crate_report,
         meshing: meshed.report,
     };
     if let Some(r) = &a.report {
@@ -365,135 +344,4 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
             .with_context(|| format!("{}: writing report", r.display()))?;
     }
     Ok(())
-}
-
-/// How the `poisson_reconstruction` crate was called.
-#[derive(Clone, Debug, Serialize)]
-pub struct CrateParams {
-    /// Screening weight.
-    pub screening: f64,
-    /// Depth of its density estimation.
-    pub density_estimation_depth: usize,
-    /// Its `max_depth` (our depth).
-    pub max_depth: usize,
-    /// Its relaxation iterations.
-    pub max_relaxation_iters: usize,
-}
-
-/// The `poisson_reconstruction` crate's mesh of the same oriented points (`--compare-crate`).
-#[derive(Clone, Debug, Serialize)]
-pub struct CrateReport {
-    /// Vertices.
-    pub vertices: usize,
-    /// Faces.
-    pub faces: usize,
-    /// Edge-use counts.
-    pub topology: Topology,
-    /// Its time, seconds.
-    pub time_s: f64,
-    /// How it was called.
-    pub params: CrateParams,
-    /// Its closed surface against the truth.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub metrics_untrimmed: Option<CloudMetrics>,
-    /// With the same trim rule as ours, against the truth.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub metrics: Option<CloudMetrics>,
-    /// Faces left by that trim.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub trimmed_faces: Option<usize>,
-}
-
-#[cfg(not(feature = "poisson-crate"))]
-fn compare_crate(
-    _: &[Vec3],
-    _: &[Vec3],
-    _: u32,
-    _: Option<&[Vec3]>,
-    _: f64,
-    _: Option<(Trim, usize)>,
-) -> anyhow::Result<CrateReport> {
-    bail!("--compare-crate: has-sim was built without the `poisson-crate` feature (cargo build --features poisson-crate)")
-}
-
-/// Meshes the same oriented points with `poisson_reconstruction` 0.4 (f64, its own B-spline
-/// multigrid and marching cubes): screening 0 and density-estimation depth depth − 2 are its
-/// README's habits; its `max_depth` is our depth. The crate does not trim: when a trim rule is
-/// given, the same rule on the same support density is applied to its mesh too.
-#[cfg(feature = "poisson-crate")]
-fn compare_crate(
-    points: &[Vec3],
-    normals: &[Vec3],
-    depth: u32,
-    truth: Option<&[Vec3]>,
-    density: f64,
-    trim_rule: Option<(Trim, usize)>,
-) -> anyhow::Result<CrateReport> {
-    use poisson_reconstruction::PoissonReconstruction;
-    let p: Vec<nalgebra::Point3<f64>> = points
-        .iter()
-        .map(|v| nalgebra::Point3::new(v.x as f64, v.y as f64, v.z as f64))
-        .collect();
-    let n: Vec<nalgebra::Vector3<f64>> = normals
-        .iter()
-        .map(|v| {
-            let v = v.normalize();
-            nalgebra::Vector3::new(v.x as f64, v.y as f64, v.z as f64)
-        })
-        .collect();
-    let t = std::time::Instant::now();
-    let d = depth as usize;
-    let rec =
-        PoissonReconstruction::from_points_and_normals(&p, &n, 0.0, d.saturating_sub(2), d, 10);
-    let buf = rec.reconstruct_mesh_buffers();
-    let secs = t.elapsed().as_secs_f64();
-    let mesh = TriMesh {
-        vertices: buf
-            .vertices()
-            .iter()
-            .map(|q| Vec3::new(q.x as f32, q.y as f32, q.z as f32))
-            .collect(),
-        faces: buf
-            .indices()
-            .chunks_exact(3)
-            .map(|c| [c[0], c[1], c[2]])
-            .collect(),
-    };
-    let top = mesh.topology();
-    println!(
-        "poisson_reconstruction crate: {} vertices, {} faces, watertight {}, manifold {}, {secs:.2} s",
-        mesh.vertex_count(),
-        mesh.face_count(),
-        top.watertight,
-        top.manifold
-    );
-    let mut out = CrateReport {
-        vertices: mesh.vertex_count(),
-        faces: mesh.face_count(),
-        topology: top,
-        time_s: secs,
-        params: CrateParams {
-            screening: 0.0,
-            density_estimation_depth: d.saturating_sub(2),
-            max_depth: d,
-            max_relaxation_iters: 10,
-        },
-        metrics_untrimmed: None,
-        metrics: None,
-        trimmed_faces: None,
-    };
-    if let Some(truth) = truth {
-        let m = meshing::score_mesh(&mesh, truth, density)?;
-        println!("{}", summary_line("mesh (crate), untrimmed", &m));
-        out.metrics_untrimmed = Some(m);
-        if let Some((rule, k)) = trim_rule {
-            let d = has_host::mesh::support_density(points, &mesh.vertices, k)?;
-            let t = has_host::mesh::trim(&mesh, &d, rule)?;
-            let m = meshing::score_mesh(&t, truth, density)?;
-            println!("{}", summary_line("mesh (crate), same trim", &m));
-            out.metrics = Some(m);
-            out.trimmed_faces = Some(t.face_count());
-        }
-    }
-    Ok(out)
 }
