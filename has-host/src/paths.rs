@@ -795,7 +795,7 @@ impl<'a> Tracer<'a> {
         Ok(Tracer {
             scene,
             facets,
-            wavelength_m: C_M_PER_S / f,
+            wavelength_m: crate::wavelength_m(f),
             config,
             eta,
         })

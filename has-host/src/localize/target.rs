@@ -69,7 +69,7 @@ pub fn synth_symbol(
     if !n.is_multiple_of(4) || symbol.len() != n || out.len() != elements.len() * n {
         return Err(LocalizeError::Internal("target synthesis lengths"));
     }
-    let lambda = C_M_PER_S / grid.fc_hz;
+    let lambda = crate::wavelength_m(grid.fc_hz);
     let txd = tx.as_dvec3();
     let etas: Vec<Complex64> = set
         .object_materials
