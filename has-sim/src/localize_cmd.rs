@@ -3,14 +3,14 @@
 //! alone and with the environment prior from the reconstructed mesh; writes `report.json` (key
 //! `localize`), `report.md`, detections PLY and SVG plots (paper Fig. 11 and range–Doppler maps).
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
 use glam::Vec3;
 use has_host::imaging::ImagingScenario;
-use has_host::io::{ply::write_ply, PlyData, PlyFormat};
+use has_host::io::save_cloud;
 use has_host::localize::{run_localize, LocalizeReport, LocalizeResult, LocalizeSpec};
 use indicatif::{ProgressBar, ProgressStyle};
 use plotters::style::RGBColor;
@@ -51,15 +51,6 @@ fn load(args: &LocalizeArgs) -> Result<(ImagingScenario, LocalizeSpec, String)> 
     }
     spec.validate()?;
     Ok((sc, spec, name))
-}
-
-fn write_points(path: &Path, points: Vec<Vec3>, props: Vec<(&str, Vec<f32>)>) -> Result<()> {
-    let mut d = PlyData::from_points(points);
-    for (n, v) in props {
-        d = d.with_property(n, v);
-    }
-    write_ply(path, &d, PlyFormat::BinaryLittleEndian)
-        .with_context(|| format!("writing {}", path.display()))
 }
 
 /// `report.json` of `localize`: the library's report with what only the command knows.
@@ -166,7 +157,7 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
 
 fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -> Result<()> {
     let truth: Vec<Vec3> = r.frames.iter().flat_map(|f| f.truth.clone()).collect();
-    write_points(&args.out.join("truth.ply"), truth.clone(), vec![])?;
+    save_cloud(&args.out.join("truth.ply"), &truth, vec![])?;
     let det = |pass: usize| -> (Vec<Vec3>, Vec<f32>, Vec<f32>, Vec<f32>) {
         let mut p = Vec::new();
         let (mut fr, mut snr, mut dop) = (Vec::new(), Vec::new(), Vec::new());
@@ -184,15 +175,15 @@ fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -
     let blue = RGBColor(20, 70, 200);
     let green = RGBColor(20, 150, 60);
     let (eca_pts, a, b, c) = det(r.eca_best);
-    write_points(
+    save_cloud(
         &args.out.join("detections_eca.ply"),
-        eca_pts.clone(),
+        &eca_pts,
         vec![("frame", a), ("snr_db", b), ("doppler_hz", c)],
     )?;
     let (env_pts, a, b, c) = det(r.env_pass);
-    write_points(
+    save_cloud(
         &args.out.join("detections_env.ply"),
-        env_pts.clone(),
+        &env_pts,
         vec![("frame", a), ("snr_db", b), ("doppler_hz", c)],
     )?;
     let eca_label = format!("{} detections", r.passes[r.eca_best]);

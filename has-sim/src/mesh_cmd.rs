@@ -1,15 +1,14 @@
 //! `has-sim mesh`: point cloud (PLY) → oriented normals → screened Poisson → OBJ (+ PLY) mesh,
 //! with an optional comparison against a ground truth.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 
 use anyhow::{bail, Context};
 use glam::Vec3;
-use has_host::io::{ply, PlyData, PlyFormat};
-use has_host::mesh::{PoissonParams, ReconstructParams, TriMesh, Trim};
+use has_host::io::ply;
+use has_host::mesh::{PoissonParams, ReconstructParams, Trim};
 use has_host::meshing::{self, MeshingOptions, MeshingReport};
 use has_host::metrics::CloudMetrics;
-use has_host::Material;
 use serde::Serialize;
 
 /// Options of the `mesh` subcommand.
@@ -130,64 +129,6 @@ fn summary_line(name: &str, m: &CloudMetrics) -> String {
     )
 }
 
-/// Writes `mesh` as OBJ (one object, concrete; the format of [`has_host::io::obj::write_obj`],
-/// written straight from the indexed mesh without a triangle-soup copy, with area-weighted vertex
-/// normals `vn`, [`TriMesh::vertex_normals`]) and optionally as PLY with the same normals
-/// (`nx`, `ny`, `nz`) and vertex densities.
-pub fn write_mesh(
-    mesh: &TriMesh,
-    obj: &Path,
-    ply_path: Option<&Path>,
-    density: Option<&[f32]>,
-) -> anyhow::Result<()> {
-    let n = mesh.vertices.len();
-    if let Some((i, f)) = mesh
-        .faces
-        .iter()
-        .enumerate()
-        .find(|(_, f)| f.iter().any(|&v| v as usize >= n))
-    {
-        bail!("mesh face {i} {f:?} indexes past the {n} vertices");
-    }
-    if let Some(i) = mesh.vertices.iter().position(|v| !v.is_finite()) {
-        bail!("mesh vertex {i} is not finite: {:?}", mesh.vertices[i]);
-    }
-    let normals = mesh.vertex_normals();
-    has_host::io::atomic_write(obj, |w| {
-        use std::io::Write;
-        writeln!(w, "# written by has: metres, z up")?;
-        writeln!(w, "o mesh")?;
-        writeln!(w, "usemtl itu_{}", Material::Concrete.name())?;
-        for v in &mesh.vertices {
-            writeln!(w, "v {} {} {}", v.x, v.y, v.z)?;
-        }
-        for n in &normals {
-            writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
-        }
-        for f in &mesh.faces {
-            let [a, b, c] = f.map(|i| i + 1);
-            writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
-        }
-        Ok(())
-    })?;
-    if let Some(p) = ply_path {
-        let mut data = PlyData {
-            vertices: mesh.vertices.clone(),
-            properties: Vec::new(),
-            faces: mesh.faces.clone(),
-        };
-        for (k, name) in ["nx", "ny", "nz"].into_iter().enumerate() {
-            data.properties
-                .push((name.into(), normals.iter().map(|n| n[k]).collect()));
-        }
-        if let Some(d) = density {
-            data.properties.push(("density".into(), d.to_vec()));
-        }
-        ply::write_ply(p, &data, PlyFormat::BinaryLittleEndian)?;
-    }
-    Ok(())
-}
-
 /// What weighed the samples.
 #[derive(Clone, Debug, Serialize)]
 pub struct WeightsUsed {
@@ -299,7 +240,7 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
     let mut meshed = meshing::mesh_cloud(points, stored, column, &opts)
         .with_context(|| a.input.display().to_string())?;
     let peak_rss_poisson = crate::resources::peak_rss_mib();
-    write_mesh(
+    has_host::io::save_mesh(
         &meshed.mesh,
         &a.out,
         a.ply.as_deref(),

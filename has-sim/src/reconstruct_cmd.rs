@@ -7,9 +7,8 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use glam::Vec3;
 use has_host::imaging::{self, ImagingScenario, RunOptions};
-use has_host::io::{ply::write_ply, PlyData, PlyFormat};
+use has_host::io::{save_cloud, save_mesh};
 use has_host::metrics::ObservableCompleteness;
 use has_host::reconstruction::{self, ReconstructOptions, ReconstructReport, Reconstruction};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
@@ -96,21 +95,12 @@ fn load(args: &ReconstructArgs) -> Result<(ImagingScenario, String)> {
     Ok((sc, name))
 }
 
-fn write_cloud(path: &Path, points: &[Vec3], props: Vec<(&str, Vec<f32>)>) -> Result<()> {
-    let mut d = PlyData::from_points(points.to_vec());
-    for (n, v) in props {
-        d = d.with_property(n, v);
-    }
-    write_ply(path, &d, PlyFormat::BinaryLittleEndian)
-        .with_context(|| format!("writing {}", path.display()))
-}
-
 /// `mesh.obj`, `mesh.ply`, `mesh_input.ply` (the oriented and weighted input of the mesher, so
 /// that `has-sim mesh mesh_input.ply` reproduces and can vary the surface stage without
 /// rerunning the imaging), `mesh_top.svg`, `mesh_side.svg`.
 fn write_mesh_files(out: &Path, rec: &Reconstruction, surf: &imaging::Surface) -> Result<()> {
     let n = &surf.normals;
-    write_cloud(
+    save_cloud(
         &out.join("mesh_input.ply"),
         &surf.points,
         vec![
@@ -120,7 +110,7 @@ fn write_mesh_files(out: &Path, rec: &Reconstruction, surf: &imaging::Surface) -
             ("intensity", surf.weights.clone()),
         ],
     )?;
-    crate::mesh_cmd::write_mesh(
+    save_mesh(
         &surf.mesh,
         &out.join("mesh.obj"),
         Some(&out.join("mesh.ply")),
@@ -146,14 +136,14 @@ fn write_mesh_files(out: &Path, rec: &Reconstruction, surf: &imaging::Surface) -
 fn write_cloud_files(out: &Path, rec: &Reconstruction) -> Result<()> {
     let (world, result) = (&rec.world, &rec.result);
     for (p, img) in result.plans.iter().zip(&result.images) {
-        write_cloud(
+        save_cloud(
             &out.join(format!("pair_{}.ply", p.name)),
             &img.points,
             vec![("intensity", img.intensity.clone())],
         )?;
     }
     let fused = &result.fused;
-    write_cloud(
+    save_cloud(
         &out.join("fused.ply"),
         &fused.points,
         vec![
@@ -162,7 +152,7 @@ fn write_cloud_files(out: &Path, rec: &Reconstruction) -> Result<()> {
             ("pairs", fused.pairs.iter().map(|&n| n as f32).collect()),
         ],
     )?;
-    write_cloud(&out.join("ground_truth.ply"), &world.truth, vec![])?;
+    save_cloud(&out.join("ground_truth.ply"), &world.truth, vec![])?;
     let grey = RGBColor(170, 170, 170);
     let blue = RGBColor(20, 70, 200);
     for (file, view, title) in [

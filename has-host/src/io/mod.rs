@@ -11,7 +11,10 @@ use std::fs::File;
 use std::io::{BufWriter, Write};
 use std::path::{Path, PathBuf};
 
+use glam::Vec3;
+
 use crate::material::Material;
+use crate::mesh::TriMesh;
 use crate::scene::Object;
 
 pub mod mitsuba;
@@ -256,6 +259,70 @@ pub fn save_objects(path: &Path, objects: &[Object]) -> Result<(), MeshIoError> 
     }
 }
 
+/// Writes a surface mesh for viewing and reuse: OBJ at `obj` (one object `mesh`, concrete, the
+/// material a twin's surfaces get, with the area-weighted vertex normals of
+/// [`TriMesh::vertex_normals`] as `vn`, [`obj::write_mesh`]) and, if `ply` is given, binary
+/// little-endian PLY with the same normals (`nx`, `ny`, `nz`) and, if given, each vertex's
+/// support `density`. Each file is complete or absent ([`atomic_write`]); the mesh is checked
+/// before either is written.
+///
+/// # Errors
+/// [`MeshIoError::BadData`] if a face indexes past the vertices, a vertex is not finite or
+/// `density` has another length than the vertices; [`MeshIoError::Io`] if a file cannot be
+/// written.
+pub fn save_mesh(
+    mesh: &TriMesh,
+    obj: &Path,
+    ply: Option<&Path>,
+    density: Option<&[f32]>,
+) -> Result<(), MeshIoError> {
+    if let (Some(p), Some(d)) = (ply, density) {
+        if d.len() != mesh.vertices.len() {
+            return Err(MeshIoError::BadData {
+                path: p.to_path_buf(),
+                msg: format!("{} densities for {} vertices", d.len(), mesh.vertices.len()),
+            });
+        }
+    }
+    obj::check_mesh(obj, mesh)?;
+    let normals = mesh.vertex_normals();
+    obj::write_mesh(obj, mesh, "mesh", Material::Concrete, Some(&normals))?;
+    if let Some(p) = ply {
+        let mut data = PlyData {
+            vertices: mesh.vertices.clone(),
+            properties: Vec::new(),
+            faces: mesh.faces.clone(),
+        };
+        for (k, name) in ["nx", "ny", "nz"].into_iter().enumerate() {
+            data.properties
+                .push((name.into(), normals.iter().map(|n| n[k]).collect()));
+        }
+        if let Some(d) = density {
+            data.properties.push(("density".into(), d.to_vec()));
+        }
+        ply::write_ply(p, &data, PlyFormat::BinaryLittleEndian)?;
+    }
+    Ok(())
+}
+
+/// Writes a point cloud as binary little-endian PLY with extra per-point `f32` columns
+/// `(name, values)`, atomically ([`ply::write_ply`]).
+///
+/// # Errors
+/// As [`ply::write_ply`]: a column whose length differs from the points' or a bad column name is
+/// [`MeshIoError::BadData`].
+pub fn save_cloud(
+    path: &Path,
+    points: &[Vec3],
+    properties: Vec<(&str, Vec<f32>)>,
+) -> Result<(), MeshIoError> {
+    let mut data = PlyData::from_points(points.to_vec());
+    for (name, values) in properties {
+        data = data.with_property(name, values);
+    }
+    ply::write_ply(path, &data, PlyFormat::BinaryLittleEndian)
+}
+
 pub(crate) fn file_stem(path: &Path) -> String {
     path.file_stem()
         .map(|s| s.to_string_lossy().into_owned())
@@ -279,7 +346,6 @@ pub(crate) mod testutil {
 mod tests {
     use super::*;
     use crate::shapes;
-    use glam::Vec3;
 
     #[test]
     fn atomic_write_leaves_no_temp_file_and_replaces_target() {
@@ -350,6 +416,60 @@ mod tests {
         let all: Vec<_> = objs.iter().flat_map(|o| o.triangles.clone()).collect();
         assert_eq!(ply[0].triangles, all);
         assert_eq!(ply[0].material, Material::Metal);
+    }
+
+    #[test]
+    fn save_mesh_writes_obj_and_ply_that_read_back_or_nothing_when_the_mesh_is_bad() {
+        let d = testutil::tmp_dir("save-mesh");
+        let tet = TriMesh {
+            vertices: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z],
+            faces: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
+        };
+        let (obj, ply) = (d.join("m.obj"), d.join("m.ply"));
+        let density = [1.0, 2.0, 3.0, 4.0];
+        save_mesh(&tet, &obj, Some(&ply), Some(&density)).unwrap();
+        let back = load_objects(&obj, None).unwrap();
+        assert_eq!(
+            (back[0].name.as_str(), back[0].material),
+            ("mesh", Material::Concrete)
+        );
+        let soup: Vec<_> = tet
+            .faces
+            .iter()
+            .map(|f| f.map(|i| tet.vertices[i as usize]))
+            .collect();
+        assert_eq!(back[0].triangles, soup);
+        assert!(std::fs::read_to_string(&obj)
+            .unwrap()
+            .contains("f 1//1 3//3 2//2\n"));
+        let p = ply::read_ply(&ply).unwrap();
+        assert_eq!(
+            (p.vertices.clone(), p.faces.clone()),
+            (tet.vertices.clone(), tet.faces.clone())
+        );
+        assert_eq!(p.property("density"), Some(&density[..]));
+        for (k, n) in tet.vertex_normals().iter().enumerate() {
+            assert_eq!(p.property("nx").unwrap()[k], n.x);
+        }
+        let bad_face = TriMesh {
+            faces: vec![[0, 1, 4]],
+            ..tet.clone()
+        };
+        let mut bad_vertex = tet.clone();
+        bad_vertex.vertices[2].y = f32::NAN;
+        for (m, dens, want) in [
+            (&bad_face, None, "indexes past the 4 vertices"),
+            (&bad_vertex, None, "vertex 2 is not finite"),
+            (&tet, Some(&density[..3]), "3 densities for 4 vertices"),
+        ] {
+            let (o, p) = (d.join("bad.obj"), d.join("bad.ply"));
+            let e = save_mesh(m, &o, Some(&p), dens).unwrap_err();
+            assert!(
+                matches!(e, MeshIoError::BadData { .. }) && e.to_string().contains(want),
+                "{e}"
+            );
+            assert!(!o.exists() && !p.exists());
+        }
     }
 
     #[test]

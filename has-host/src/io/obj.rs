@@ -6,7 +6,8 @@
 //! name is the latest `o` or `g` (the file stem before any), suffixed `.<material>` when one name
 //! carries several materials. A `usemtl` name is a material if [`Material::from_name`] accepts it
 //! with or without a `mat-` prefix (`concrete`, `itu_concrete`, `mat-itu_concrete`). Written files
-//! use `o <name>` and `usemtl itu_<material>` per object and 1-based indices.
+//! use `o <name>` and `usemtl itu_<material>` per object and 1-based indices; an indexed mesh
+//! ([`write_mesh`]) may carry per-vertex normals (`vn`, faces `f a//a b//b c//c`).
 
 use std::io::Write;
 use std::path::Path;
@@ -15,6 +16,7 @@ use glam::Vec3;
 
 use super::{atomic_write, file_stem, read_bytes, MeshIoError};
 use crate::material::Material;
+use crate::mesh::TriMesh;
 use crate::scene::Object;
 
 /// A material from an OBJ `usemtl` or Mitsuba id: `concrete`, `itu_concrete`,
@@ -189,38 +191,122 @@ pub fn parse_obj(
     Ok(objects)
 }
 
+/// The first line of every OBJ file has writes.
+const HEADER: &str = "# written by has: metres, z up";
+
 /// Writes objects as OBJ atomically (one `o` and `usemtl itu_<material>` per object; vertices
 /// shared within an object where bit-identical).
 pub fn write_obj(path: &Path, objects: &[Object]) -> Result<(), MeshIoError> {
     atomic_write(path, |w| {
-        writeln!(w, "# written by has: metres, z up")?;
+        writeln!(w, "{HEADER}")?;
         let mut base = 1usize;
         for o in objects {
             let mut data = super::PlyData::default();
             data.append_triangles(&o.triangles);
-            let name: String = o
-                .name
-                .chars()
-                .map(|c| if c.is_control() { '_' } else { c })
-                .collect();
-            writeln!(w, "o {}", name.trim())?;
-            writeln!(w, "usemtl itu_{}", o.material.name())?;
-            for v in &data.vertices {
-                writeln!(w, "v {} {} {}", v.x, v.y, v.z)?;
-            }
-            for f in &data.faces {
-                writeln!(
-                    w,
-                    "f {} {} {}",
-                    f[0] as usize + base,
-                    f[1] as usize + base,
-                    f[2] as usize + base
-                )?;
-            }
+            write_object(
+                w,
+                &o.name,
+                o.material,
+                &data.vertices,
+                None,
+                &data.faces,
+                base,
+            )?;
             base += data.vertices.len();
         }
         Ok(())
     })
+}
+
+/// Writes an indexed mesh as OBJ atomically: one object `name` of `material`, written straight
+/// from its indices (no triangle-soup copy), with per-vertex `normals` as `vn` lines and faces as
+/// `f a//a b//b c//c` when given.
+///
+/// # Errors
+/// [`MeshIoError::BadData`] (nothing written) if a face indexes past the vertices, a vertex is
+/// not finite or `normals` has another length than the vertices; [`MeshIoError::Io`] if the
+/// file cannot be written.
+pub fn write_mesh(
+    path: &Path,
+    mesh: &TriMesh,
+    name: &str,
+    material: Material,
+    normals: Option<&[Vec3]>,
+) -> Result<(), MeshIoError> {
+    check_mesh(path, mesh)?;
+    if let Some(m) = normals.filter(|m| m.len() != mesh.vertices.len()) {
+        return Err(MeshIoError::BadData {
+            path: path.to_path_buf(),
+            msg: format!("{} normals for {} vertices", m.len(), mesh.vertices.len()),
+        });
+    }
+    atomic_write(path, |w| {
+        writeln!(w, "{HEADER}")?;
+        write_object(w, name, material, &mesh.vertices, normals, &mesh.faces, 1)
+    })
+}
+
+/// Checks that every face of `mesh` indexes one of its vertices and every vertex is finite;
+/// the error names `path`, the file that was to be written.
+pub(crate) fn check_mesh(path: &Path, mesh: &TriMesh) -> Result<(), MeshIoError> {
+    let bad = |msg: String| MeshIoError::BadData {
+        path: path.to_path_buf(),
+        msg,
+    };
+    let n = mesh.vertices.len();
+    if let Some((i, f)) = mesh
+        .faces
+        .iter()
+        .enumerate()
+        .find(|(_, f)| f.iter().any(|&v| v as usize >= n))
+    {
+        return Err(bad(format!(
+            "mesh face {i} {f:?} indexes past the {n} vertices"
+        )));
+    }
+    if let Some(i) = mesh.vertices.iter().position(|v| !v.is_finite()) {
+        return Err(bad(format!(
+            "mesh vertex {i} is not finite: {:?}",
+            mesh.vertices[i]
+        )));
+    }
+    Ok(())
+}
+
+/// One object: `o <name>` (control characters replaced, trimmed), `usemtl itu_<material>`, `v`
+/// lines, `vn` lines if `normals` are given, and faces with 1-based indices offset by `base`, the
+/// number of vertices written before plus one (`f a b c`, or `f a//a b//b c//c` with normals,
+/// which assumes every object of the file has normals).
+fn write_object(
+    w: &mut impl Write,
+    name: &str,
+    material: Material,
+    vertices: &[Vec3],
+    normals: Option<&[Vec3]>,
+    faces: &[[u32; 3]],
+    base: usize,
+) -> std::io::Result<()> {
+    let name: String = name
+        .chars()
+        .map(|c| if c.is_control() { '_' } else { c })
+        .collect();
+    writeln!(w, "o {}", name.trim())?;
+    writeln!(w, "usemtl itu_{}", material.name())?;
+    for v in vertices {
+        writeln!(w, "v {} {} {}", v.x, v.y, v.z)?;
+    }
+    for n in normals.unwrap_or_default() {
+        writeln!(w, "vn {} {} {}", n.x, n.y, n.z)?;
+    }
+    for f in faces {
+        let [a, b, c] = f.map(|i| i as usize + base);
+        if normals.is_some() {
+            writeln!(w, "f {a}//{a} {b}//{b} {c}//{c}")?;
+        } else {
+            writeln!(w, "f {a} {b} {c}")?;
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]
