@@ -536,6 +536,23 @@ impl ImagingScenario {
         }
     }
 
+    /// Every base station's panel centre and every aperture's ends, each with its field name
+    /// (`base_stations[i].position`, `apertures[i].start`, `apertures[i].end`).
+    pub fn sensor_positions(&self) -> impl Iterator<Item = (String, [f32; 3])> + '_ {
+        let stations = self
+            .base_stations
+            .iter()
+            .enumerate()
+            .map(|(i, b)| (format!("base_stations[{i}].position"), b.position));
+        let apertures = self.apertures.iter().enumerate().flat_map(|(i, a)| {
+            [
+                (format!("apertures[{i}].start"), a.start),
+                (format!("apertures[{i}].end"), a.end),
+            ]
+        });
+        stations.chain(apertures)
+    }
+
     /// Every sensor position and the region within [`coherent_extent_m`] of the origin at the
     /// scenario's wavelength. [`super::build_world`] checks it once the carrier is known to lie
     /// in the scene's materials' range.
@@ -546,21 +563,10 @@ impl ImagingScenario {
         let wavelength_m = self.wavelength_m();
         let limit_m = coherent_extent_m(wavelength_m);
         let im = &self.imaging;
-        let named = self
-            .base_stations
-            .iter()
-            .enumerate()
-            .map(|(i, b)| (format!("base_stations[{i}].position"), b.position))
-            .chain(self.apertures.iter().enumerate().flat_map(|(i, a)| {
-                [
-                    (format!("apertures[{i}].start"), a.start),
-                    (format!("apertures[{i}].end"), a.end),
-                ]
-            }))
-            .chain([
-                ("imaging.region_min".to_string(), im.region_min),
-                ("imaging.region_max".to_string(), im.region_max),
-            ]);
+        let named = self.sensor_positions().chain([
+            ("imaging.region_min".to_string(), im.region_min),
+            ("imaging.region_max".to_string(), im.region_max),
+        ]);
         for (field, v) in named {
             let distance_m = v.iter().fold(0.0f64, |m, &x| m.max((x as f64).abs()));
             if distance_m > limit_m {

@@ -256,18 +256,7 @@ pub fn build_world(sc: &ImagingScenario) -> Result<World, RunError> {
         });
     }
     sc.check_extent()?;
-    let sensors = sc
-        .base_stations
-        .iter()
-        .enumerate()
-        .map(|(i, b)| (format!("base_stations[{i}].position"), b.position))
-        .chain(sc.apertures.iter().enumerate().flat_map(|(i, a)| {
-            [
-                (format!("apertures[{i}].start"), a.start),
-                (format!("apertures[{i}].end"), a.end),
-            ]
-        }));
-    for (field, p) in sensors {
+    for (field, p) in sc.sensor_positions() {
         if let Some(o) = scene.enclosing_object(Vec3::from(p)) {
             return Err(RunError::Enclosed {
                 field,
