@@ -167,6 +167,24 @@ impl TriMesh {
             .sum()
     }
 
+    /// The mesh as one scene object of `material` (its faces as triangles, in face order): a
+    /// reconstructed twin handed to the ray tracer (`channel_experiment`, `localize`) without a
+    /// file in between.
+    ///
+    /// # Errors
+    /// A face indexing a vertex the mesh does not have.
+    pub fn to_object(
+        &self,
+        name: &str,
+        material: crate::Material,
+    ) -> Result<crate::Object, GeometryError> {
+        Ok(crate::Object {
+            name: name.to_string(),
+            material,
+            triangles: metrics::indexed_triangles(&self.vertices, &self.faces)?,
+        })
+    }
+
     /// Uniform area-weighted samples on the faces ([`metrics::sample_mesh`]): S1 for the metrics.
     ///
     /// # Errors
@@ -455,6 +473,27 @@ pub fn reconstruct_oriented(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_mesh_becomes_one_traceable_object_with_its_faces_in_order() {
+        let m = tetra();
+        let o = m.to_object("twin", crate::Material::Concrete).unwrap();
+        assert_eq!(
+            (o.name.as_str(), o.triangles.len()),
+            ("twin", m.faces.len())
+        );
+        for (t, f) in o.triangles.iter().zip(&m.faces) {
+            assert_eq!(*t, f.map(|v| m.vertices[v as usize]));
+        }
+        // The object builds a scene, and a ray at the mesh hits it.
+        let scene = crate::Scene::new(vec![o]).unwrap();
+        let c = m.vertices.iter().copied().sum::<Vec3>() / m.vertices.len() as f32;
+        assert!(!scene.visible(c + Vec3::new(0.0, 0.0, 10.0), c));
+        // A face past the vertices is an error, not a panic.
+        let mut bad = m.clone();
+        bad.faces[0][1] = 99;
+        assert!(bad.to_object("bad", crate::Material::Concrete).is_err());
+    }
 
     #[test]
     fn surface_away_from_every_sample_is_clipped_and_supported_surface_kept() {
