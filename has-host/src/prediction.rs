@@ -5,12 +5,11 @@
 //! Units as in the rest of the scenario file: metres, degrees, decibels. The UEs are drawn
 //! uniformly (seeded ChaCha8) in the horizontal rectangle `ue_region_min … ue_region_max` at
 //! height `ue_height_m` above z = 0; a draw is rejected when a ray straight up from it hits the
-//! true scene (inside or under a building). The twin is the reconstructed mesh plus the true
+//! true scene (inside or under a building; [`Scene::uncovered_positions`]). The twin is the reconstructed mesh plus the true
 //! scene's `known_objects` (the ground: the imaging region starts 1 m above it, so the ground is
 //! never reconstructed and is taken as known and flat).
 
-use glam::{DVec3, Vec3};
-use rand::{Rng, SeedableRng};
+use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
 use crate::imaging::ScenarioError;
@@ -283,28 +282,14 @@ impl ChannelSpec {
     /// positions are found in `1000·ues` draws (the region is covered by buildings).
     pub fn ue_positions(&self, truth: &Scene) -> Result<Vec<DVec3>, ScenarioError> {
         self.validate()?;
-        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(self.seed);
         let (lo, hi) = (self.ue_region_min, self.ue_region_max);
-        let mut out = Vec::with_capacity(self.ues);
-        let mut tries = 0usize;
-        while out.len() < self.ues {
-            if tries >= 1000 * self.ues {
-                return Err(invalid(
-                    "ue_region_min",
-                    (lo, hi),
-                    "a region with room for the UEs outside buildings",
-                ));
-            }
-            tries += 1;
-            let x = rng.random_range(lo[0]..hi[0]);
-            let y = rng.random_range(lo[1]..hi[1]);
-            let p = DVec3::new(x, y, self.ue_height_m);
-            if truth
-                .closest_hit(p.as_vec3(), Vec3::Z, 0.0, f32::INFINITY)
-                .is_none()
-            {
-                out.push(p);
-            }
+        let out = truth.uncovered_positions(lo, hi, self.ue_height_m, self.ues, self.seed);
+        if out.len() < self.ues {
+            return Err(invalid(
+                "ue_region_min",
+                (lo, hi),
+                "a region with room for the UEs outside buildings",
+            ));
         }
         Ok(out)
     }
@@ -447,6 +432,7 @@ pub fn compare_ue(
 mod tests {
     use super::*;
     use crate::shapes;
+    use glam::Vec3;
 
     fn spec() -> ChannelSpec {
         toml::from_str(

@@ -8,13 +8,14 @@
 
 use std::time::Duration;
 
-use glam::{Vec3, Vec3A};
+use glam::{DVec3, Vec3, Vec3A};
 use obvhs::{
     cwbvh::{builder::build_cwbvh_from_tris, CwBvh},
     ray::{Ray, RayHit},
     triangle::Triangle,
     BvhBuildParams,
 };
+use rand::{Rng, SeedableRng};
 use rayon::prelude::*;
 
 use crate::material::Material;
@@ -290,6 +291,41 @@ impl Scene {
             .collect()
     }
 
+    /// Up to `n` positions drawn uniformly (ChaCha8 seeded with `seed`) in the horizontal
+    /// rectangle `lo … hi` (x, y, metres) at height `z`, each rejected when a ray straight up
+    /// (+z) from it hits the scene, i.e. inside or under an object. At most `1000·n` draws are
+    /// made, so fewer than `n` come back when the rectangle is (almost) covered; none when it is
+    /// empty or not finite. Deterministic for the seed: the UEs of the channel experiment
+    /// ([`crate::prediction::ChannelSpec::ue_positions`]) and of the paths benchmark.
+    pub fn uncovered_positions(
+        &self,
+        lo: [f64; 2],
+        hi: [f64; 2],
+        z: f64,
+        n: usize,
+        seed: u64,
+    ) -> Vec<DVec3> {
+        if !(0..2).all(|k| lo[k].is_finite() && hi[k].is_finite() && lo[k] < hi[k]) {
+            return Vec::new();
+        }
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut out = Vec::with_capacity(n);
+        let mut tries = 0usize;
+        while out.len() < n && tries < 1000 * n {
+            tries += 1;
+            let x = rng.random_range(lo[0]..hi[0]);
+            let y = rng.random_range(lo[1]..hi[1]);
+            let p = DVec3::new(x, y, z);
+            if self
+                .closest_hit(p.as_vec3(), Vec3::Z, 0.0, f32::INFINITY)
+                .is_none()
+            {
+                out.push(p);
+            }
+        }
+        out
+    }
+
     /// Axis-aligned bounds `(min, max)` of all triangles.
     pub fn bounds(&self) -> (Vec3, Vec3) {
         let mut lo = Vec3::splat(f32::INFINITY);
@@ -395,6 +431,28 @@ mod tests {
             (Vec3::new(0.0, 0.0, 1.0), Vec3::new(5.0, 0.0, 2.0)),
         ]);
         assert_eq!(batch, vec![false, true]);
+    }
+
+    #[test]
+    fn uncovered_positions_avoid_what_is_overhead_and_stop_after_1000_draws_each() {
+        // The plate covers |x|, |y| <= 10 at z = 0; draws at z = -1 under it are rejected.
+        let s = plate();
+        let p = s.uncovered_positions([-20.0, -20.0], [20.0, 20.0], -1.0, 200, 7);
+        assert_eq!(p.len(), 200);
+        assert!(p.iter().all(|q| q.x.abs() > 10.0 || q.y.abs() > 10.0));
+        assert!(p
+            .iter()
+            .all(|q| q.z == -1.0 && q.x.abs() < 20.0 && q.y.abs() < 20.0));
+        assert_eq!(
+            p,
+            s.uncovered_positions([-20.0, -20.0], [20.0, 20.0], -1.0, 200, 7)
+        );
+        assert!(s
+            .uncovered_positions([-9.0, -9.0], [9.0, 9.0], -1.0, 3, 7)
+            .is_empty());
+        assert!(s
+            .uncovered_positions([1.0, 0.0], [1.0, 5.0], 0.0, 3, 7)
+            .is_empty());
     }
 
     #[test]

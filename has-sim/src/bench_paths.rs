@@ -8,11 +8,10 @@
 use std::path::Path;
 use std::time::Instant;
 
-use glam::{DVec3, Vec3};
+use glam::DVec3;
 use has_host::paths::{Tracer, TracerConfig};
 use has_host::scene::PROBE_UP;
 use has_host::Scene;
-use rand::{Rng, SeedableRng};
 
 use crate::bench_raytrace::BenchRow;
 
@@ -34,25 +33,16 @@ pub fn bs_position(scene: &Scene) -> DVec3 {
 }
 
 /// `n` UE positions, uniformly in the scene's extent (inset 10 m) at `height` above its lowest
-/// point, rejected where a ray straight up hits something (inside or under a building).
+/// point, outside and not under any object ([`Scene::uncovered_positions`]).
 pub fn random_ues(scene: &Scene, n: usize, height: f64, seed: u64) -> Vec<DVec3> {
     let (lo, hi) = scene.bounds();
-    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
-    let mut out = Vec::with_capacity(n);
-    let mut tries = 0usize;
-    while out.len() < n && tries < 1000 * n.max(1) {
-        tries += 1;
-        let x = rng.random_range(lo.x as f64 + 10.0..hi.x as f64 - 10.0);
-        let y = rng.random_range(lo.y as f64 + 10.0..hi.y as f64 - 10.0);
-        let p = DVec3::new(x, y, lo.z as f64 + height);
-        if scene
-            .closest_hit(p.as_vec3(), Vec3::Z, 0.0, f32::INFINITY)
-            .is_none()
-        {
-            out.push(p);
-        }
-    }
-    out
+    scene.uncovered_positions(
+        [lo.x as f64 + 10.0, lo.y as f64 + 10.0],
+        [hi.x as f64 - 10.0, hi.y as f64 - 10.0],
+        lo.z as f64 + height,
+        n,
+        seed,
+    )
 }
 
 /// Paths per second on `scene_file` with each thread count of `threads`.
@@ -101,6 +91,7 @@ pub fn bench_paths(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::Vec3;
     use has_host::shapes::axis_box;
     use has_host::Material;
 
