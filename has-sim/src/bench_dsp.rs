@@ -12,7 +12,7 @@ use glam::Vec3;
 use has_dsp::bp::{add_point_echo, ser_db, AccF32, AccQ15, Backprojector, BpConfig, Interp};
 use has_dsp::bp::{PhaseEval, Snapshot, VoxelGrid};
 use has_dsp::fft::{fft_c32, fft_q15, Q15Scaling};
-use has_dsp::fixed::{cq15_from_c32, CQ15};
+use has_dsp::fixed::{cq15_block_from_c32, cq15_from_c32, CQ15};
 use has_dsp::range::{RangeCompressor, RangeConfig, RangeMode};
 use has_dsp::window::Window;
 use num_complex::Complex;
@@ -134,22 +134,17 @@ impl BpCase {
         (self.bp.voxels() * self.rx.len()) as f64
     }
 
-    fn q15_profiles(&self) -> (Vec<CQ15>, Vec<i32>) {
-        // Block floating point per profile: scale so the largest component uses the Q15 range.
-        let mut q = Vec::with_capacity(self.profiles.len());
-        let mut exps = Vec::with_capacity(self.rx.len());
-        for prof in self.profiles.chunks(self.profile_len) {
-            let peak = prof
-                .iter()
-                .map(|z| z.re.abs().max(z.im.abs()))
-                .fold(0.0f32, f32::max)
-                .max(f32::MIN_POSITIVE);
-            let exp = peak.log2().floor() as i32 + 1;
-            let scale = (-exp as f32).exp2();
-            q.extend(prof.iter().map(|z| cq15_from_c32(*z * scale)));
-            exps.push(exp);
-        }
-        (q, exps)
+    /// The profiles in block floating point, one exponent per profile
+    /// ([`has_dsp::fixed::cq15_block_from_c32`]).
+    fn q15_profiles(&self) -> Result<(Vec<CQ15>, Vec<i32>)> {
+        let mut q = vec![CQ15::default(); self.profiles.len()];
+        let exps = self
+            .profiles
+            .chunks(self.profile_len)
+            .zip(q.chunks_mut(self.profile_len))
+            .map(|(p, d)| cq15_block_from_c32(p, d))
+            .collect::<Result<Vec<_>, _>>()?;
+        Ok((q, exps))
     }
 
     /// `f64` reference image of the whole snapshot.
@@ -214,7 +209,7 @@ fn bp_rates(quick: bool, budget: Duration) -> Result<Vec<BpRow>> {
 
     {
         let case = bp_case(dims, side, PhaseEval::Poly)?;
-        let (q, exps) = case.q15_profiles();
+        let (q, exps) = case.q15_profiles()?;
         let snap = Snapshot {
             tx: case.tx,
             rx: &case.rx,
