@@ -45,6 +45,20 @@ pub struct Object {
     pub triangles: Vec<[Vec3; 3]>,
 }
 
+impl Object {
+    /// Axis-aligned bounds `(min, max)` of the object's vertices, metres; `(+∞, −∞)` without
+    /// triangles.
+    pub fn bounds(&self) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for v in self.triangles.iter().flatten() {
+            lo = lo.min(*v);
+            hi = hi.max(*v);
+        }
+        (lo, hi)
+    }
+}
+
 /// Result of a closest-hit query.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Hit {
@@ -416,6 +430,14 @@ mod tests {
         assert_eq!(name(Vec3::new(-5.0, 4.0, 3.0)), None);
         assert_eq!(name(Vec3::new(22.0, 0.0, 3.0)), None, "under the bridge");
         assert_eq!(name(Vec3::new(5.0, 4.0, 30.0)), None, "above the hall");
+    }
+
+    #[test]
+    fn object_bounds_span_its_vertices() {
+        let s = plate();
+        let b = (Vec3::new(-10.0, -10.0, 0.0), Vec3::new(10.0, 10.0, 0.0));
+        assert_eq!(s.objects[0].bounds(), b);
+        assert_eq!(s.bounds(), b);
     }
 
     #[test]

@@ -52,12 +52,7 @@ pub fn run(cmd: SceneCmd) -> anyhow::Result<()> {
                 "object", "material", "triangles", "min (m)", "max (m)"
             );
             for o in &objects {
-                let mut lo = glam::Vec3::splat(f32::INFINITY);
-                let mut hi = glam::Vec3::splat(f32::NEG_INFINITY);
-                for v in o.triangles.iter().flatten() {
-                    lo = lo.min(*v);
-                    hi = hi.max(*v);
-                }
+                let (lo, hi) = o.bounds();
                 println!(
                     "{:<24} {:<18} {:>9}  {:>28}  {:>28}",
                     o.name,
