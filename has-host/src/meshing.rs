@@ -282,15 +282,7 @@ mod tests {
 
     /// `n` points on a sphere of radius 5 m about the origin (a Fibonacci lattice).
     fn sphere(n: usize) -> Vec<Vec3> {
-        let g = std::f32::consts::PI * (3.0 - 5f32.sqrt());
-        (0..n)
-            .map(|i| {
-                let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
-                let r = (1.0 - z * z).sqrt();
-                let t = g * i as f32;
-                Vec3::new(r * t.cos(), r * t.sin(), z) * 5.0
-            })
-            .collect()
+        crate::mesh::normals::fibonacci_sphere(n, Vec3::ZERO, 5.0)
     }
 
     fn options(trim: Option<Trim>) -> MeshingOptions {

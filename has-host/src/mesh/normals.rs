@@ -277,21 +277,27 @@ fn propagate(points: &[Vec3], normals: &mut [Vec3], index: &PointIndex, k: usize
     }
 }
 
+/// `n` points of a Fibonacci lattice on the sphere of `radius` about `centre` (tests).
+#[cfg(test)]
+pub(crate) fn fibonacci_sphere(n: usize, centre: Vec3, radius: f32) -> Vec<Vec3> {
+    let g = std::f32::consts::PI * (3.0 - 5f32.sqrt());
+    (0..n)
+        .map(|i| {
+            let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
+            let r = (1.0 - z * z).sqrt();
+            let t = g * i as f32;
+            centre + radius * Vec3::new(r * t.cos(), r * t.sin(), z)
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
+    /// Radius 2 m, centred at (1, 2, 3).
     fn sphere(n: usize) -> Vec<Vec3> {
-        // Fibonacci sphere, radius 2 m, centred at (1, 2, 3).
-        let g = std::f32::consts::PI * (3.0 - 5f32.sqrt());
-        (0..n)
-            .map(|i| {
-                let z = 1.0 - 2.0 * (i as f32 + 0.5) / n as f32;
-                let r = (1.0 - z * z).sqrt();
-                let t = g * i as f32;
-                Vec3::new(1.0, 2.0, 3.0) + 2.0 * Vec3::new(r * t.cos(), r * t.sin(), z)
-            })
-            .collect()
+        fibonacci_sphere(n, Vec3::new(1.0, 2.0, 3.0), 2.0)
     }
 
     #[test]
