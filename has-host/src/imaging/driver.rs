@@ -257,9 +257,8 @@ struct FrameSource<'a> {
     scene: &'a Scene,
     set: &'a ScattererSet,
     synth: EchoSynth,
-    array_centre: Vec3,
-    /// The panel's boresight: it receives only from the half-space in front of it.
-    boresight: Vec3,
+    /// The receiving panel: it receives only from the half-space in front of it.
+    array: PlanarArray,
     cache: VisibilityCache,
     /// The cached visible scatterers in front of the panel, and the cache recompute they follow.
     in_front: Vec<u32>,
@@ -289,7 +288,7 @@ impl FrameSource<'_> {
         out: &mut [Complex32],
     ) -> Result<(), ImagingError> {
         let t = Instant::now();
-        let (set, scene, centre, n) = (self.set, self.scene, self.array_centre, self.boresight);
+        let (set, scene, centre) = (self.set, self.scene, self.array.centre);
         self.cache.get(set, scene, tx, centre)?;
         // The panel's backplane: a scatterer behind the array plane does not reach the elements
         // (without it, a planar array images it as its mirror in front; module docs).
@@ -298,7 +297,7 @@ impl FrameSource<'_> {
             self.in_front = visible
                 .iter()
                 .copied()
-                .filter(|&i| (set.points[i as usize].pos - centre).dot(n) > 0.0)
+                .filter(|&i| in_front_of_panel(&self.array, set.points[i as usize].pos))
                 .collect();
             self.in_front_of = self.cache.recomputes();
         }
@@ -429,8 +428,7 @@ fn frame_sources<'a>(
         scene,
         set,
         synth,
-        array_centre: geo.array.centre,
-        boresight: geo.array.boresight(),
+        array: geo.array.clone(),
         cache: VisibilityCache::new(im.visibility_shift_m),
         in_front: Vec::new(),
         in_front_of: 0,
@@ -447,8 +445,7 @@ fn frame_sources<'a>(
             scene: &world.terrain.scene,
             set: &world.terrain.scatterers,
             synth: EchoSynth::new(echo_cfg)?,
-            array_centre: geo.array.centre,
-            boresight: geo.array.boresight(),
+            array: geo.array.clone(),
             cache: VisibilityCache::new(im.visibility_shift_m),
             in_front: Vec::new(),
             in_front_of: 0,
