@@ -208,6 +208,12 @@ pub struct ImagingSpec {
     /// (`imaging::detection::direct_path_guard_m`).
     #[serde(default = "default_true")]
     pub direct_path_guard: bool,
+    /// Drop each pair's detections in the bistatic-range band of the ground beneath either of
+    /// its ends that lie farther from the ends than that ground
+    /// (`imaging::detection::NadirBand`): the ground under a terminal is the pair's strongest
+    /// clutter, in the same range cells.
+    #[serde(default = "default_true")]
+    pub nadir_guard: bool,
     /// Move each pair's detections that lie in the skirt of a stronger echo's point-spread
     /// function (below half its power, within the pair's resolution along the direction it
     /// resolves worst) to that echo's power centroid ([`super::centroid`]).

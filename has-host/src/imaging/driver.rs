@@ -58,10 +58,10 @@ use super::config::{Detection, ImagingScenario};
 use super::detection::{
     alias_is_stronger, alias_window_m, coherence_factor, detected, direct_path_guard_m,
     effective_looks, image_false_alarm_probability, layer_looks_per_voxel, layer_window,
-    local_mean, pareto_factor, CfarFactors,
+    local_mean, pareto_factor, CfarFactors, NadirBand,
 };
 use super::run::World;
-use super::sensors::{pair_resolution_m, PlanarArray, VirtualAperture};
+use super::sensors::{pair_cell_m3, pair_resolution_m, PlanarArray, VirtualAperture};
 use crate::echo::{EchoConfig, EchoError, EchoSynth, Noise, ScattererSet, VisibilityCache};
 use crate::scene::Scene;
 
@@ -833,6 +833,10 @@ pub fn image_pair(
         let c2 = local_mean(&pm, fdims, radius).mean;
         drop(pm);
         let looks_per_voxel = layer_looks_per_voxel(v, geo.cell_m3, geo.cell_vertical_m);
+        let (lambda, bandwidth_hz) = (
+            sc.wavelength_m() as f32,
+            (sc.radar.bandwidth_mhz * 1e6) as f32,
+        );
         let mut det = vec![false; offset];
         for b in &bricks {
             for i in 0..b.bp.voxels() {
@@ -844,9 +848,18 @@ pub fn image_pair(
                 // The spiky-clutter factor only ever raises the threshold: test it only on
                 // what passes the exponential one.
                 det[j] = detected(i2, cm, p, q, a, beta) && {
+                    // The window's looks with the resolution cell at this voxel, where it is
+                    // larger than at the region's centre (a track's endfire): fewer looks, a
+                    // higher factor for the same pfa.
+                    let at = b.bp.grid().voxel_world(i).unwrap_or(b.bp.grid().origin);
+                    let (cell, vertical) =
+                        pair_cell_m3(at, &geo.array, &geo.aperture, lambda, bandwidth_hz);
+                    let per_voxel = layer_looks_per_voxel(v, cell, vertical).min(looks_per_voxel);
+                    let looks = effective_looks(c.count[g].max(1.0) as usize, per_voxel);
                     let kappa = c2[g] as f64 / (cm as f64).powi(2);
-                    let looks = effective_looks(c.count[g].max(1.0) as usize, looks_per_voxel);
-                    let a = a.max(pareto_factor(kappa, looks, pfa) as f32);
+                    let a = a
+                        .max(has_dsp::cfar::mean_level_factor(pfa, looks) as f32)
+                        .max(pareto_factor(kappa, looks, pfa) as f32);
                     detected(i2, cm, p, q, a, beta)
                 };
             }
@@ -860,7 +873,12 @@ pub fn image_pair(
     drop(img_m);
     drop(img_i);
     drop(img_r);
-    let (mut points, intensity) = extract_points(sc, &bricks, &img, &detected, &geo);
+    let nadir_bands = if im.nadir_guard {
+        nadir_bands(sc, world, &geo)
+    } else {
+        Vec::new()
+    };
+    let (mut points, intensity) = extract_points(sc, &bricks, &img, &detected, &geo, &nadir_bands);
     if im.skirt_centroid {
         points = skirt_to_centroid(
             &points,
@@ -1121,16 +1139,56 @@ fn dims_of(lo: Vec3, hi: Vec3, v: f32) -> [usize; 3] {
     [d.x as usize, d.y as usize, d.z as usize]
 }
 
+/// The ground bands of a pair's ends (`imaging.nadir_guard`, [`NadirBand`]): the aperture's
+/// first, middle and last transmit positions against the panel's centre, and the panel's centre
+/// against the aperture's middle, each over the terrain point straight below it. None without a
+/// known terrain.
+fn nadir_bands(sc: &ImagingScenario, world: &World, geo: &PairGeometry) -> Vec<NadirBand> {
+    if !world.is_ground.iter().any(|&g| g) {
+        return Vec::new();
+    }
+    let guard = main_lobe_guard_m(sc);
+    let (tx_c, rx_c) = (geo.aperture.centre(), geo.array.centre);
+    let nadir = |p: Vec3| {
+        world
+            .terrain
+            .scene
+            .closest_hit(p, Vec3::NEG_Z, 0.0, f32::INFINITY)
+            .map(|h| h.point)
+    };
+    [
+        (geo.aperture.start, rx_c),
+        (tx_c, rx_c),
+        (geo.aperture.end, rx_c),
+        (rx_c, tx_c),
+    ]
+    .into_iter()
+    .filter_map(|(end, other)| NadirBand::new(end, other, nadir(end)?, guard))
+    .collect()
+}
+
+/// The range profile's main-lobe half-width in metres of bistatic path
+/// ([`direct_path_guard_m`]).
+fn main_lobe_guard_m(sc: &ImagingScenario) -> f32 {
+    let cells = sc
+        .window()
+        .ok()
+        .and_then(|w| w.main_lobe_half_width_cells())
+        .unwrap_or(1.0);
+    direct_path_guard_m(cells, sc.radar.bandwidth_mhz * 1e6)
+}
+
 /// The detected voxels of the fine image, optionally only those that are local maxima of `|I|`
 /// along the bistatic range gradient (the direction the pair resolves best) and not weaker than
 /// anything at their grating-lobe aliases (`imaging.alias_test`), outside the pair's direct-path
-/// zone (`imaging.direct_path_guard`).
+/// zone (`imaging.direct_path_guard`) and its ends' ground bands (`imaging.nadir_guard`).
 fn extract_points(
     sc: &ImagingScenario,
     bricks: &[Brick],
     img: &[Complex32],
     detected: &[bool],
     geo: &PairGeometry,
+    nadir_bands: &[NadirBand],
 ) -> (Vec<Vec3>, Vec<f32>) {
     let (local_max, alias_test) = (sc.imaging.local_max, sc.imaging.alias_test);
     let lambda = sc.wavelength_m() as f32;
@@ -1169,12 +1227,7 @@ fn extract_points(
     // The direct-path zone (`detection::direct_path_guard_m`), from every transmit position's
     // baseline: the track's ends and centre bound it.
     let guard = if sc.imaging.direct_path_guard {
-        let cells = sc
-            .window()
-            .ok()
-            .and_then(|w| w.main_lobe_half_width_cells())
-            .unwrap_or(1.0);
-        direct_path_guard_m(cells, bandwidth_hz as f64)
+        main_lobe_guard_m(sc)
     } else {
         f32::NEG_INFINITY
     };
@@ -1193,7 +1246,11 @@ fn extract_points(
                 continue;
             }
             let p = g.voxel_world(i).unwrap_or(g.origin);
-            if !sc.in_region(p) || in_direct_zone(p) || !in_front_of_panel(&geo.array, p) {
+            if !sc.in_region(p)
+                || in_direct_zone(p)
+                || !in_front_of_panel(&geo.array, p)
+                || nadir_bands.iter().any(|b| b.covers(p))
+            {
                 continue;
             }
             if local_max {
