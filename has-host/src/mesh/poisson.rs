@@ -731,13 +731,19 @@ pub fn screened_poisson_weighted(
         .unwrap_or(max_ext * (1.0 + 2.0 * params.padding) / (1u64 << params.depth) as f32);
     let pad_cells = ((params.padding * max_ext) / h).ceil().max(3.0) as usize;
     let unit = 1usize << params.levels;
+    // Every level's nodes on the world lattice of its cell (the origin a multiple of the
+    // coarsest cell), not on the cloud's bounding box: a point added or removed far away, or a
+    // cloud that grew, leaves the grid where it was, so the surface only changes where the
+    // samples do (with the box-fitted grid, dropping 2 of 5 100 points 15 m from the building
+    // moved a quick mesh's √CD by 3 %).
+    let coarse = h as f64 * unit as f64;
     let mut cells = [0usize; 3];
     let mut origin = Vec3::ZERO;
     for a in 0..3 {
-        let raw = (ext[a] / h).ceil() as usize + 2 * pad_cells;
-        let rounded = raw.div_ceil(unit) * unit;
-        cells[a] = rounded;
-        origin[a] = lo[a] - (pad_cells as f32 + (rounded - raw) as f32 / 2.0) * h;
+        let o = ((lo[a] as f64 - pad_cells as f64 * h as f64) / coarse).floor();
+        let top = ((hi[a] as f64 + pad_cells as f64 * h as f64) / coarse).ceil();
+        cells[a] = ((top - o).max(1.0) as usize) * unit;
+        origin[a] = (o * coarse) as f32;
     }
     let full_nodes = |j: u32| -> usize { cells.iter().map(|c| c / (1 << j) + 1).product() };
     // Levels 0 (finest) ..= levels; level j is banded when it is too large as a full grid
