@@ -148,6 +148,8 @@ pub struct PointCloudReport {
     pub observable_truth: ObservableCompleteness,
     /// Points the cross-pair confirmation removed.
     pub unconfirmed_removed: usize,
+    /// Points removed as echoes of the known terrain (`imaging.terrain_echo_test`).
+    pub terrain_echoes_removed: usize,
 }
 
 /// What the ground truth is and how much of it the imaged pairs could see.
@@ -312,6 +314,7 @@ impl Prepared<'_> {
                 .map_err(ReconstructError::Metrics)?,
             observable_truth: ObservableCompleteness::new(&cmp, &observable),
             unconfirmed_removed: fused.unconfirmed,
+            terrain_echoes_removed: fused.terrain_echoes,
         };
         let any_pairing_pct = imaging::share_pct(&imaging::observable_truth(
             sc,

@@ -259,6 +259,11 @@ pub struct ImagingSpec {
     /// pairs which see its place did not detect (0 keeps every point).
     #[serde(default = "default_cross_pair_denials")]
     pub cross_pair_denials: u8,
+    /// Drop fused points that lie within the vertical resolution of their pairs above the known
+    /// terrain with nothing of the cloud rising above that layer around them: the terrain's own
+    /// echoes ([`super::terrain_echo`]).
+    #[serde(default = "default_true")]
+    pub terrain_echo_test: bool,
     /// Seed of the scatterer sampling and the noise.
     #[serde(default = "default_one_u64")]
     pub seed: u64,

@@ -9,6 +9,7 @@ pub mod driver;
 pub mod run;
 pub mod sensors;
 pub mod surface;
+pub mod terrain_echo;
 
 pub use config::{Detection, ImagingScenario, ScenarioError};
 pub use driver::{image_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions};

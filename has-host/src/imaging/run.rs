@@ -30,7 +30,8 @@ use glam::Vec3;
 use super::config::ImagingScenario;
 use super::confirmation::{confirmed, PairSight};
 use super::driver::{image_pair, ImagingError, PairImage, PairPlan, RunOptions};
-use super::sensors::{nyquist_spacing_m, pair_resolution_m};
+use super::sensors::{nyquist_spacing_m, pair_resolution_m, vertical_extent_m};
+use super::terrain_echo::terrain_echoes;
 use rayon::prelude::*;
 
 use crate::echo::ScattererSet;
@@ -514,6 +515,8 @@ pub struct FusedCloud {
     pub pair_factor: Vec<f32>,
     /// Points dropped by the cross-pair confirmation ([`confirm`]).
     pub unconfirmed: usize,
+    /// Points dropped as echoes of the known terrain ([`drop_terrain_echoes`]).
+    pub terrain_echoes: usize,
 }
 
 /// Fuses the pairs' clouds (module docs).
@@ -622,6 +625,94 @@ pub fn confirm(
         pair_mask: pick(&fused.pair_mask, &keep),
         pair_factor: fused.pair_factor,
         unconfirmed: keep.iter().filter(|&&k| !k).count(),
+        terrain_echoes: fused.terrain_echoes,
+    }
+}
+
+/// The fused cloud without the echoes of the known terrain (`imaging.terrain_echo_test`,
+/// [`super::terrain_echo`]): each point's height above the terrain straight below it, its layer
+/// the finest vertical extent among the pairs that kept it; unchanged without a known terrain.
+pub fn drop_terrain_echoes(
+    sc: &ImagingScenario,
+    world: &World,
+    plans: &[PairPlan],
+    fused: FusedCloud,
+) -> FusedCloud {
+    if !sc.imaging.terrain_echo_test
+        || fused.points.is_empty()
+        || !world.is_ground.iter().any(|&g| g)
+    {
+        return fused;
+    }
+    let (lambda, bandwidth_hz) = (
+        sc.wavelength_m() as f32,
+        (sc.radar.bandwidth_mhz * 1e6) as f32,
+    );
+    let geometry: Vec<_> = plans
+        .iter()
+        .map(|p| (sc.array(p.bs), sc.aperture(p.aperture, p.positions)))
+        .collect();
+    let (heights, layers): (Vec<f32>, Vec<f32>) = fused
+        .points
+        .par_iter()
+        .zip(&fused.pair_mask)
+        .map(|(&p, &mask)| {
+            let up = Vec3::new(p.x, p.y, p.z + 1e4);
+            let height = world
+                .terrain
+                .scene
+                .closest_hit(up, Vec3::NEG_Z, 0.0, f32::INFINITY)
+                .map_or(f32::NAN, |h| p.z - h.point.z);
+            let layer = geometry
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| *k < 64 && mask & (1 << k) != 0)
+                .map(|(_, (a, ap))| vertical_extent_m(p, a, ap, lambda, bandwidth_hz))
+                .fold(f32::INFINITY, f32::min);
+            (height, layer)
+        })
+        .unzip();
+    let echo = terrain_echoes(
+        &fused.points,
+        &heights,
+        &layers,
+        support_distance_m(sc, plans),
+    );
+    let keep: Vec<bool> = echo.iter().map(|&e| !e).collect();
+    let pick = |v: &[f32]| -> Vec<f32> {
+        v.iter()
+            .zip(&keep)
+            .filter(|(_, &k)| k)
+            .map(|(x, _)| *x)
+            .collect()
+    };
+    FusedCloud {
+        points: fused
+            .points
+            .iter()
+            .zip(&keep)
+            .filter(|(_, &k)| k)
+            .map(|(p, _)| *p)
+            .collect(),
+        weight: pick(&fused.weight),
+        intensity: pick(&fused.intensity),
+        pairs: fused
+            .pairs
+            .iter()
+            .zip(&keep)
+            .filter(|(_, &k)| k)
+            .map(|(x, _)| *x)
+            .collect(),
+        pair_mask: fused
+            .pair_mask
+            .iter()
+            .zip(&keep)
+            .filter(|(_, &k)| k)
+            .map(|(x, _)| *x)
+            .collect(),
+        pair_factor: fused.pair_factor,
+        unconfirmed: fused.unconfirmed,
+        terrain_echoes: echo.iter().filter(|&&e| e).count(),
     }
 }
 
@@ -752,6 +843,7 @@ pub fn run_imaging(
     }
     let fused = fuse(sc, &plans, &images, sc.imaging.voxel_m);
     let fused = confirm(sc, world, &plans, &images, fused);
+    let fused = drop_terrain_echoes(sc, world, &plans, fused);
     Ok(RunResult {
         plans,
         images,

@@ -277,6 +277,28 @@ pub fn pair_resolution_axes(
     ]
 }
 
+/// The vertical extent (metres) of a pair's resolution cell at a scene point: `√((J⁻¹)_zz)` for
+/// the information matrix `J = Σ a aᵀ/δ²` over the four directions and resolutions of
+/// [`pair_resolution_axes`] — how finely the pair places an echo in height, whatever direction
+/// resolves it.
+pub fn vertical_extent_m(
+    point: Vec3,
+    array: &PlanarArray,
+    aperture: &VirtualAperture,
+    wavelength_m: f32,
+    bandwidth_hz: f32,
+) -> f32 {
+    let mut j = glam::DMat3::ZERO;
+    for (a, d) in pair_resolution_axes(point, array, aperture, wavelength_m, bandwidth_hz) {
+        let a = a.as_dvec3();
+        j += glam::DMat3::from_cols(a * a.x, a * a.y, a * a.z) / (d as f64).powi(2).max(1e-12);
+    }
+    if j.determinant().abs() < 1e-18 {
+        return f32::INFINITY;
+    }
+    (j.inverse().z_axis.z.max(0.0)).sqrt() as f32
+}
+
 /// Cross-range resolution (metres) of a linear track of length `L` at a point seen at angle `θ`
 /// from the track's axis, distance `R` from its centre: the one-way phase `2π r/λ` changes across
 /// the track by `L·cos θ/λ` cycles, so the track resolves `Δ(cos θ) = λ/L`, an angle of
