@@ -519,6 +519,28 @@ pub struct FusedCloud {
     pub terrain_echoes: usize,
 }
 
+impl FusedCloud {
+    /// The points with `keep[i]` true, each with its weight, intensity and pairs; the per-pair
+    /// factors and the counts of removed points carried over.
+    pub fn retain(self, keep: &[bool]) -> FusedCloud {
+        fn pick<T: Copy>(v: &[T], keep: &[bool]) -> Vec<T> {
+            v.iter()
+                .zip(keep)
+                .filter(|(_, &k)| k)
+                .map(|(x, _)| *x)
+                .collect()
+        }
+        FusedCloud {
+            points: pick(&self.points, keep),
+            weight: pick(&self.weight, keep),
+            intensity: pick(&self.intensity, keep),
+            pairs: pick(&self.pairs, keep),
+            pair_mask: pick(&self.pair_mask, keep),
+            ..self
+        }
+    }
+}
+
 /// Fuses the pairs' clouds (module docs).
 pub fn fuse(
     sc: &ImagingScenario,
@@ -610,22 +632,10 @@ pub fn confirm(
         support_distance_m(sc, plans),
         need,
     );
-    fn pick<T: Copy>(v: &[T], keep: &[bool]) -> Vec<T> {
-        v.iter()
-            .zip(keep)
-            .filter(|(_, &k)| k)
-            .map(|(x, _)| *x)
-            .collect()
-    }
+    let unconfirmed = keep.iter().filter(|&&k| !k).count();
     FusedCloud {
-        points: pick(&fused.points, &keep),
-        weight: pick(&fused.weight, &keep),
-        intensity: pick(&fused.intensity, &keep),
-        pairs: pick(&fused.pairs, &keep),
-        pair_mask: pick(&fused.pair_mask, &keep),
-        pair_factor: fused.pair_factor,
-        unconfirmed: keep.iter().filter(|&&k| !k).count(),
-        terrain_echoes: fused.terrain_echoes,
+        unconfirmed,
+        ..fused.retain(&keep)
     }
 }
 
@@ -679,40 +689,9 @@ pub fn drop_terrain_echoes(
         support_distance_m(sc, plans),
     );
     let keep: Vec<bool> = echo.iter().map(|&e| !e).collect();
-    let pick = |v: &[f32]| -> Vec<f32> {
-        v.iter()
-            .zip(&keep)
-            .filter(|(_, &k)| k)
-            .map(|(x, _)| *x)
-            .collect()
-    };
     FusedCloud {
-        points: fused
-            .points
-            .iter()
-            .zip(&keep)
-            .filter(|(_, &k)| k)
-            .map(|(p, _)| *p)
-            .collect(),
-        weight: pick(&fused.weight),
-        intensity: pick(&fused.intensity),
-        pairs: fused
-            .pairs
-            .iter()
-            .zip(&keep)
-            .filter(|(_, &k)| k)
-            .map(|(x, _)| *x)
-            .collect(),
-        pair_mask: fused
-            .pair_mask
-            .iter()
-            .zip(&keep)
-            .filter(|(_, &k)| k)
-            .map(|(x, _)| *x)
-            .collect(),
-        pair_factor: fused.pair_factor,
-        unconfirmed: fused.unconfirmed,
         terrain_echoes: echo.iter().filter(|&&e| e).count(),
+        ..fused.retain(&keep)
     }
 }
 
