@@ -158,6 +158,9 @@ pub struct NadirBand {
     pub excess_m: [f32; 2],
     /// The nadir's leg product `h·|n − other|`, m².
     pub nadir_product_m2: f32,
+    /// The leg product above which a voxel in the band is covered: the nadir's times the
+    /// uniform aperture's peak sidelobe ratio, m².
+    pub covered_product_m2: f32,
 }
 
 impl NadirBand {
@@ -189,11 +192,13 @@ impl NadirBand {
                 hi = hi.max(e);
             }
         }
+        let nadir_product_m2 = h * nadir.distance(other);
         Some(NadirBand {
             end,
             other,
             excess_m: [lo - guard_m, hi + guard_m],
-            nadir_product_m2: h * nadir.distance(other),
+            nadir_product_m2,
+            covered_product_m2: 10f32.powf(UNIFORM_APERTURE_PSLR_DB / 20.0) * nadir_product_m2,
         })
     }
 
@@ -202,8 +207,7 @@ impl NadirBand {
     pub fn covers(&self, p: glam::Vec3) -> bool {
         let (a, b) = (p.distance(self.end), p.distance(self.other));
         let e = a + b - self.end.distance(self.other);
-        let ratio = 10f32.powf(UNIFORM_APERTURE_PSLR_DB / 20.0);
-        e >= self.excess_m[0] && e <= self.excess_m[1] && a * b >= ratio * self.nadir_product_m2
+        e >= self.excess_m[0] && e <= self.excess_m[1] && a * b >= self.covered_product_m2
     }
 }
 
