@@ -1149,13 +1149,6 @@ fn nadir_bands(sc: &ImagingScenario, world: &World, geo: &PairGeometry) -> Vec<N
     }
     let guard = main_lobe_guard_m(sc);
     let (tx_c, rx_c) = (geo.aperture.centre(), geo.array.centre);
-    let nadir = |p: Vec3| {
-        world
-            .terrain
-            .scene
-            .closest_hit(p, Vec3::NEG_Z, 0.0, f32::INFINITY)
-            .map(|h| h.point)
-    };
     [
         (geo.aperture.start, rx_c),
         (tx_c, rx_c),
@@ -1163,7 +1156,7 @@ fn nadir_bands(sc: &ImagingScenario, world: &World, geo: &PairGeometry) -> Vec<N
         (rx_c, tx_c),
     ]
     .into_iter()
-    .filter_map(|(end, other)| NadirBand::new(end, other, nadir(end)?, guard))
+    .filter_map(|(end, other)| NadirBand::new(end, other, world.terrain.below(end)?, guard))
     .collect()
 }
 

@@ -66,6 +66,16 @@ pub struct Terrain {
     pub scatterers: ScattererSet,
 }
 
+impl Terrain {
+    /// The terrain's point straight below `p` (the first terrain surface a ray down from `p`
+    /// meets), `None` where there is none.
+    pub fn below(&self, p: Vec3) -> Option<Vec3> {
+        self.scene
+            .closest_hit(p, Vec3::NEG_Z, 0.0, f32::INFINITY)
+            .map(|h| h.point)
+    }
+}
+
 /// Errors of a run, beyond the driver's.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
@@ -667,12 +677,7 @@ pub fn drop_terrain_echoes(
         .par_iter()
         .zip(&fused.pair_mask)
         .map(|(&p, &mask)| {
-            let up = Vec3::new(p.x, p.y, p.z + 1e4);
-            let height = world
-                .terrain
-                .scene
-                .closest_hit(up, Vec3::NEG_Z, 0.0, f32::INFINITY)
-                .map_or(f32::NAN, |h| p.z - h.point.z);
+            let height = world.terrain.below(p).map_or(f32::NAN, |g| p.z - g.z);
             let layer = geometry
                 .iter()
                 .enumerate()
