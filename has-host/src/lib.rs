@@ -13,6 +13,7 @@ pub mod imaging;
 pub use has_dsp::geometry::{bistatic_range, wavelength_m, C_M_PER_S};
 
 pub mod beam;
+pub mod bench;
 pub mod channel;
 pub mod channel_experiment;
 pub mod echo;

@@ -1,19 +1,9 @@
-//! `has-sim bench raytrace`: BVH build time, closest-hit and visibility (any-hit) throughput on
-//! a deterministic city of ≥ 100k triangles, with one thread and with all threads.
-//!
-//! The scene: a gently undulating ground heightfield (`--cells`² cells, two triangles each) and a
-//! 16 × 16 grid of buildings (random sizes and yaws, some pitched and sawtooth roofs) from a
-//! fixed seed. Closest-hit rays start 2–80 m above the ground anywhere over the city with
-//! directions uniform on the lower hemisphere tilted up to 10° above the horizon; visibility
-//! segments join a point 20–60 m up to a point 1.5 m above the ground. Every measurement is one
-//! function returning a [`BenchRow`], so more (e.g. paths per second) can be added beside them.
-
-use std::time::Instant;
+//! `has-sim bench raytrace`: the table (or JSON) of [`has_host::bench::raytrace::run`]: BVH
+//! build time, closest-hit and visibility (any-hit) throughput on the deterministic benchmark
+//! city, and paths per second, with one thread and with all threads.
 
 use clap::{Args, Subcommand};
-use glam::{Vec2, Vec3};
-use has_host::shapes::{self, Building, Direction, Roof};
-use has_host::{Material, Object, Scene};
+use has_host::bench::raytrace::{BenchRow, BUILDINGS};
 
 /// Benchmark subcommands.
 #[derive(Subcommand)]
@@ -50,273 +40,9 @@ pub struct RaytraceArgs {
     /// Print JSON instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Scene of the paths-per-second measurement (500 UEs, order 3; see `bench_paths`).
+    /// Scene of the paths-per-second measurement (500 UEs, order 3; see `has_host::bench::paths`).
     #[arg(long, default_value = "fixtures/city_block.toml")]
     pub paths_scene: std::path::PathBuf,
-}
-
-/// One measured line of the table.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct BenchRow {
-    /// What was measured.
-    pub name: String,
-    /// Worker threads used.
-    pub threads: usize,
-    /// Items processed (rays, segments, builds, ...).
-    pub count: usize,
-    /// Wall time, seconds.
-    pub seconds: f64,
-    /// Items per second of wall time.
-    pub per_second: f64,
-    /// Process CPU time (user + system) spent, seconds, if the OS reports it (Linux).
-    pub cpu_seconds: Option<f64>,
-    /// A sanity figure (hit fraction, visible fraction, ...), free text.
-    pub note: String,
-}
-
-impl BenchRow {
-    pub(crate) fn new(
-        name: &str,
-        threads: usize,
-        count: usize,
-        seconds: f64,
-        note: String,
-    ) -> Self {
-        BenchRow {
-            name: name.into(),
-            threads,
-            count,
-            seconds,
-            per_second: count as f64 / seconds.max(1e-12),
-            cpu_seconds: None,
-            note,
-        }
-    }
-}
-
-/// The benchmark city of a `bench raytrace` run.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct BenchScene {
-    /// Triangles.
-    pub triangles: usize,
-    /// Objects (the ground and the buildings).
-    pub objects: usize,
-    /// Ground heightfield cells per side.
-    pub cells: u32,
-    /// Seed of the scene and rays.
-    pub seed: u64,
-}
-
-/// `bench raytrace --json`.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct RaytraceReport {
-    /// The scene.
-    pub scene: BenchScene,
-    /// The measurements, in table order.
-    pub rows: Vec<BenchRow>,
-}
-
-/// Process CPU time (user + system), seconds, from `/proc/self/stat` (Linux; clock ticks assumed
-/// 100 Hz, the Linux `USER_HZ`). On a shared machine wall time includes waiting for a core; CPU
-/// time does not, so `count / cpu_seconds` is the throughput per busy core.
-pub fn process_cpu_seconds() -> Option<f64> {
-    let stat = std::fs::read_to_string("/proc/self/stat").ok()?;
-    // Fields after the parenthesised command name; utime and stime are fields 14 and 15.
-    let rest = &stat[stat.rfind(')')? + 2..];
-    let f: Vec<&str> = rest.split_whitespace().collect();
-    let utime: f64 = f.get(11)?.parse().ok()?;
-    let stime: f64 = f.get(12)?.parse().ok()?;
-    Some((utime + stime) / 100.0)
-}
-
-/// Runs `work`, returning its result, wall seconds and CPU seconds (if known).
-fn timed<T>(work: impl FnOnce() -> T) -> (T, f64, Option<f64>) {
-    let c0 = process_cpu_seconds();
-    let t = Instant::now();
-    let out = work();
-    let wall = t.elapsed().as_secs_f64();
-    let cpu = c0.and_then(|c0| process_cpu_seconds().map(|c1| c1 - c0));
-    (out, wall, cpu)
-}
-
-/// SplitMix64: a small deterministic generator for the scene and the rays.
-struct Rng(u64);
-
-impl Rng {
-    fn next_u64(&mut self) -> u64 {
-        self.0 = self.0.wrapping_add(0x9E37_79B9_7F4A_7C15);
-        let mut z = self.0;
-        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
-        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-        z ^ (z >> 31)
-    }
-
-    /// Uniform in [lo, hi).
-    fn uniform(&mut self, lo: f32, hi: f32) -> f32 {
-        let u = (self.next_u64() >> 40) as f32 / (1u64 << 24) as f32;
-        lo + (hi - lo) * u
-    }
-}
-
-/// Half extent of the generated city, metres.
-const HALF: f32 = 480.0;
-
-/// Ground height of the generated city, metres.
-fn terrain(x: f32, y: f32) -> f32 {
-    1.5 * (x / 57.0).sin() * (y / 43.0).cos() + 0.5 * (0.11 * x + 0.07 * y).sin()
-}
-
-/// The deterministic benchmark city.
-pub fn bench_city(cells: u32, seed: u64) -> anyhow::Result<Vec<Object>> {
-    let mut rng = Rng(seed);
-    let mut objects = vec![shapes::heightfield(
-        "terrain",
-        Material::MediumDryGround,
-        Vec2::splat(-HALF),
-        Vec2::splat(HALF),
-        (cells, cells),
-        terrain,
-    )?];
-    let n = 16;
-    let pitch = 2.0 * HALF / n as f32;
-    for j in 0..n {
-        for i in 0..n {
-            let c = Vec2::new(
-                -HALF + pitch * (i as f32 + 0.5),
-                -HALF + pitch * (j as f32 + 0.5),
-            );
-            let roof = match rng.next_u64() % 4 {
-                0 => Roof::Pitched {
-                    ridge: shapes::Axis::X,
-                    height: rng.uniform(2.0, 6.0),
-                },
-                1 => Roof::Sawtooth {
-                    teeth: 3 + (rng.next_u64() % 6) as u32,
-                    height: rng.uniform(1.5, 4.0),
-                    facing: Direction::PosY,
-                },
-                _ => Roof::Flat,
-            };
-            let b = Building {
-                // Sunk 2 m so the undulating ground (±2 m) never shows under a wall.
-                base_center: Vec3::new(c.x, c.y, terrain(c.x, c.y) - 2.0),
-                size: Vec3::new(
-                    rng.uniform(15.0, 0.6 * pitch),
-                    rng.uniform(15.0, 0.6 * pitch),
-                    rng.uniform(8.0, 60.0),
-                ),
-                yaw_rad: rng.uniform(-0.4, 0.4),
-                roof,
-                bottom: false,
-            };
-            objects.push(shapes::building(
-                format!("b{i:02}_{j:02}"),
-                Material::Concrete,
-                &b,
-            )?);
-        }
-    }
-    Ok(objects)
-}
-
-fn pool(threads: usize) -> anyhow::Result<rayon::ThreadPool> {
-    Ok(rayon::ThreadPoolBuilder::new()
-        .num_threads(threads)
-        .build()?)
-}
-
-/// BVH build: the best of `repeats` builds of the scene.
-pub fn bench_build(objects: &[Object], repeats: usize) -> anyhow::Result<(Scene, BenchRow)> {
-    let mut best = f64::INFINITY;
-    let mut scene = None;
-    for _ in 0..repeats.max(1) {
-        let s = Scene::new(objects.to_vec())?;
-        best = best.min(s.build_time.as_secs_f64());
-        scene = Some(s);
-    }
-    let scene = scene.expect("at least one build");
-    let row = BenchRow::new(
-        "BVH build (CWBVH)",
-        1,
-        scene.triangle_count(),
-        best,
-        format!("best of {repeats}, per-second = triangles/s"),
-    );
-    Ok((scene, row))
-}
-
-/// Closest-hit rays over the city.
-pub fn closest_rays(n: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
-    let mut rng = Rng(seed ^ 0xC105E57);
-    (0..n)
-        .map(|_| {
-            let x = rng.uniform(-HALF, HALF);
-            let y = rng.uniform(-HALF, HALF);
-            let o = Vec3::new(x, y, terrain(x, y) + rng.uniform(2.0, 80.0));
-            let az = rng.uniform(0.0, std::f32::consts::TAU);
-            // Elevation from −90° to +10°, uniform in sin(elevation).
-            let s = rng.uniform(-1.0, 0.17);
-            let c = (1.0 - s * s).sqrt();
-            (o, Vec3::new(c * az.cos(), c * az.sin(), s))
-        })
-        .collect()
-}
-
-/// Closest-hit throughput with `threads` workers.
-pub fn bench_closest(
-    scene: &Scene,
-    rays: &[(Vec3, Vec3)],
-    threads: usize,
-) -> anyhow::Result<BenchRow> {
-    let p = pool(threads)?;
-    let (hits, secs, cpu) = timed(|| p.install(|| scene.closest_hits(rays, f32::INFINITY)));
-    let hit = hits.iter().filter(|h| h.is_some()).count();
-    let mut row = BenchRow::new(
-        "closest hit",
-        threads,
-        rays.len(),
-        secs,
-        format!("{:.1} % hit", 100.0 * hit as f64 / rays.len().max(1) as f64),
-    );
-    row.cpu_seconds = cpu;
-    Ok(row)
-}
-
-/// Visibility segments from 20–60 m up to 1.5 m above the ground.
-pub fn visibility_segments(n: usize, seed: u64) -> Vec<(Vec3, Vec3)> {
-    let mut rng = Rng(seed ^ 0x5E6);
-    (0..n)
-        .map(|_| {
-            let (x, y) = (rng.uniform(-HALF, HALF), rng.uniform(-HALF, HALF));
-            let a = Vec3::new(x, y, terrain(x, y) + rng.uniform(20.0, 60.0));
-            let (u, v) = (rng.uniform(-HALF, HALF), rng.uniform(-HALF, HALF));
-            let b = Vec3::new(u, v, terrain(u, v) + 1.5);
-            (a, b)
-        })
-        .collect()
-}
-
-/// Visibility (any-hit) throughput with `threads` workers.
-pub fn bench_visibility(
-    scene: &Scene,
-    segments: &[(Vec3, Vec3)],
-    threads: usize,
-) -> anyhow::Result<BenchRow> {
-    let p = pool(threads)?;
-    let (vis, secs, cpu) = timed(|| p.install(|| scene.visible_many(segments)));
-    let seen = vis.iter().filter(|&&v| v).count();
-    let mut row = BenchRow::new(
-        "visibility (any hit)",
-        threads,
-        segments.len(),
-        secs,
-        format!(
-            "{:.1} % visible",
-            100.0 * seen as f64 / segments.len().max(1) as f64
-        ),
-    );
-    row.cpu_seconds = cpu;
-    Ok(row)
 }
 
 /// Prints rows as an aligned table.
@@ -361,49 +87,19 @@ fn raytrace(a: &RaytraceArgs) -> anyhow::Result<()> {
             a.rays
         );
     }
-    let objects = bench_city(a.cells, a.seed)?;
-    let (scene, build) = bench_build(&objects, 3)?;
-    let all = rayon::current_num_threads();
-    let mut rows = vec![build];
-    let rays = closest_rays(a.rays, a.seed);
-    let segs = visibility_segments(a.rays, a.seed);
-    let mut threads = vec![1];
-    if all > 1 {
-        threads.push(all);
-    }
-    for &t in &threads {
-        rows.push(bench_closest(&scene, &rays, t)?);
-    }
-    for &t in &threads {
-        rows.push(bench_visibility(&scene, &segs, t)?);
-    }
-    rows.extend(crate::bench_paths::bench_paths(
-        &a.paths_scene,
-        &threads,
-        a.seed,
-    )?);
+    let paths_scene = has_host::scenario::load_scene(&a.paths_scene)
+        .map_err(|e| anyhow::anyhow!("--paths-scene: {e}"))?;
+    let report = has_host::bench::raytrace::run(a.cells, a.rays, a.seed, &paths_scene)?;
     if a.json {
-        let report = RaytraceReport {
-            scene: BenchScene {
-                triangles: scene.triangle_count(),
-                objects: scene.objects.len(),
-                cells: a.cells,
-                seed: a.seed,
-            },
-            rows,
-        };
         let v = serde_json::to_value(&report)?;
         println!("{}", serde_json::to_string_pretty(&v)?);
     } else {
+        let s = &report.scene;
         println!(
-            "scene: {} triangles ({} objects: {}x{}-cell heightfield + 256 buildings), seed {}",
-            scene.triangle_count(),
-            scene.objects.len(),
-            a.cells,
-            a.cells,
-            a.seed
+            "scene: {} triangles ({} objects: {}x{}-cell heightfield + {BUILDINGS} buildings), seed {}",
+            s.triangles, s.objects, s.cells, s.cells, s.seed
         );
-        print_table(&rows);
+        print_table(&report.rows);
         println!(
             "per cpu s = count / process CPU time: the throughput per busy core, unaffected by \
              other processes competing for the cores (wall figures are)."
@@ -427,45 +123,5 @@ mod tests {
         }))
         .unwrap_err();
         assert!(e.to_string().contains("--cells (0)"), "{e}");
-    }
-
-    #[test]
-    fn cpu_time_is_reported_and_non_negative_on_linux() {
-        let (_, _, cpu) = timed(|| (0..20_000_000u64).fold(0u64, |a, b| a ^ b.wrapping_mul(b)));
-        if cfg!(target_os = "linux") {
-            assert!(cpu.unwrap() >= 0.0);
-        }
-    }
-
-    #[test]
-    fn default_bench_city_has_at_least_100k_triangles_and_is_deterministic() {
-        let a = bench_city(240, 1).unwrap();
-        let n: usize = a.iter().map(|o| o.triangles.len()).sum();
-        assert!(n >= 100_000, "{n}");
-        let b = bench_city(240, 1).unwrap();
-        assert!(a
-            .iter()
-            .zip(&b)
-            .all(|(x, y)| x.triangles == y.triangles && x.name == y.name));
-        assert_eq!(closest_rays(10, 3), closest_rays(10, 3));
-    }
-
-    #[test]
-    fn small_bench_runs_and_steep_rays_inside_the_city_all_hit() {
-        let objects = bench_city(16, 2).unwrap();
-        let (scene, build) = bench_build(&objects, 1).unwrap();
-        assert_eq!(build.count, scene.triangle_count());
-        // A ray at least 45° below the horizon from ≤ 82 m up travels ≤ 82 m horizontally
-        // before reaching the ground, so from ≥ 100 m inside the edge it must hit something.
-        let rays: Vec<_> = closest_rays(4000, 2)
-            .into_iter()
-            .filter(|(o, d)| o.x.abs().max(o.y.abs()) < HALF - 100.0 && d.z < -0.7072)
-            .collect();
-        assert!(rays.len() > 500, "{}", rays.len());
-        let row = bench_closest(&scene, &rays, 1).unwrap();
-        assert_eq!(row.note, "100.0 % hit");
-        let segs = visibility_segments(100, 2);
-        let row = bench_visibility(&scene, &segs, 2).unwrap();
-        assert_eq!(row.count, 100);
     }
 }

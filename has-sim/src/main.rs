@@ -9,7 +9,6 @@ use clap::{Parser, Subcommand};
 
 mod bench_dsp;
 mod bench_mesh;
-mod bench_paths;
 mod bench_raytrace;
 mod channel_cmd;
 mod localize_cmd;

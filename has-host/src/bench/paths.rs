@@ -1,19 +1,18 @@
-//! Paths-per-second measurement of `has-sim bench raytrace`: the channel-prediction tracer
-//! (`has_host::paths`) with one base station at (0, 0, 25) m (raised above whatever covers that
-//! spot) and 500 UEs at seeded random street
+//! Paths per second of the channel-prediction tracer ([`crate::paths`]) with one base station at
+//! (0, 0, 25) m (raised above whatever covers that spot) and [`UES`] UEs at seeded random street
 //! positions 1.5 m above ground, order 3, default tracer settings (200 000 SBR rays). One row per
 //! thread count; the time includes the candidate search (once per base station) and the tracing
 //! of every UE; `count` is the number of paths found.
 
-use std::path::Path;
 use std::time::Instant;
 
 use glam::DVec3;
-use has_host::paths::{Tracer, TracerConfig};
-use has_host::scene::PROBE_UP;
-use has_host::Scene;
 
-use crate::bench_raytrace::BenchRow;
+use super::raytrace::BenchRow;
+use super::{pool, BenchError};
+use crate::paths::{Tracer, TracerConfig};
+use crate::scene::PROBE_UP;
+use crate::Scene;
 
 /// Number of UEs of the measurement.
 pub const UES: usize = 500;
@@ -45,28 +44,26 @@ pub fn random_ues(scene: &Scene, n: usize, height: f64, seed: u64) -> Vec<DVec3>
     )
 }
 
-/// Paths per second on `scene_file` with each thread count of `threads`.
+/// Paths per second on `scene` with each thread count of `threads`, UEs from `seed`.
 pub fn bench_paths(
-    scene_file: &Path,
+    scene: &Scene,
     threads: &[usize],
     seed: u64,
-) -> anyhow::Result<Vec<BenchRow>> {
-    let scene = has_host::scenario::load_scene(scene_file)
-        .map_err(|e| anyhow::anyhow!("--paths-scene: {e}"))?;
-    let tracer = Tracer::new(&scene, TracerConfig::default())?;
-    let ues = random_ues(&scene, UES, 1.5, seed);
-    let bs = bs_position(&scene);
+) -> Result<Vec<BenchRow>, BenchError> {
+    let tracer = Tracer::new(scene, TracerConfig::default())?;
+    let ues = random_ues(scene, UES, 1.5, seed);
+    let bs = bs_position(scene);
     let mut rows = Vec::new();
     for &t in threads {
-        let pool = rayon::ThreadPoolBuilder::new().num_threads(t).build()?;
-        let (candidates, prepare_s, paths, seconds) = pool.install(|| -> anyhow::Result<_> {
-            let t0 = Instant::now();
-            let cand = tracer.prepare_tx(bs)?;
-            let prepare_s = t0.elapsed().as_secs_f64();
-            let all = tracer.trace_many(&cand, &ues)?;
-            let n: usize = all.iter().map(Vec::len).sum();
-            Ok((cand.len(), prepare_s, n, t0.elapsed().as_secs_f64()))
-        })?;
+        let (candidates, prepare_s, paths, seconds) =
+            pool(t)?.install(|| -> Result<_, BenchError> {
+                let t0 = Instant::now();
+                let cand = tracer.prepare_tx(bs)?;
+                let prepare_s = t0.elapsed().as_secs_f64();
+                let all = tracer.trace_many(&cand, &ues)?;
+                let n: usize = all.iter().map(Vec::len).sum();
+                Ok((cand.len(), prepare_s, n, t0.elapsed().as_secs_f64()))
+            })?;
         rows.push(BenchRow::new(
             "paths (500 UEs, order 3)",
             t,
@@ -91,9 +88,9 @@ pub fn bench_paths(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::shapes::axis_box;
+    use crate::Material;
     use glam::Vec3;
-    use has_host::shapes::axis_box;
-    use has_host::Material;
 
     #[test]
     fn the_base_station_is_raised_above_a_roof_that_covers_it() {
