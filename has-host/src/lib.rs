@@ -34,6 +34,7 @@ pub mod reconstruction;
 pub mod scenario;
 pub mod scene;
 pub mod shapes;
+pub mod suite;
 
 pub use material::Material;
 pub use scene::{Hit, Object, Scene, SceneError};

@@ -10,12 +10,20 @@
 //! Units: metres, seconds; metrics as [`crate::metrics`] (eq. 2 and 3 of the paper, S1 the cloud
 //! or the mesh's area samples, S2 the truth). A mesh is scored on uniform area samples at the
 //! truth's density, drawn with [`MESH_SAMPLE_SEED`].
+//!
+//! The inputs of `has-sim mesh` are read here too: the normals a PLY cloud stores
+//! ([`stored_normals`]), the vertex property that weighs its samples ([`weight_column`],
+//! [`DEFAULT_WEIGHT_PROPERTY`] unless another is named) and the ground truth, a PLY mesh sampled
+//! on its area or a PLY cloud taken as is ([`read_truth`]). [`MeshRunReport`] is the command's
+//! `--report`: the [`MeshingReport`] with the input file, the weights and the peak memory.
 
+use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use glam::Vec3;
 use serde::Serialize;
 
+use crate::io::{ply, MeshIoError, PlyData};
 use crate::knn::GeometryError;
 use crate::mesh::poisson::LevelStats;
 use crate::mesh::{
@@ -36,6 +44,101 @@ pub enum MeshingError {
     /// The weights, the Poisson solve, the trim or a clip.
     #[error("surface reconstruction: {0}")]
     Surface(GeometryError),
+}
+
+/// Vertex property that weighs the samples when the caller names none ([`weight_column`]):
+/// `reconstruct`'s `mesh_input.ply` and `fused.ply` carry under it the detection's amplitude
+/// relative to its pair's peak.
+pub const DEFAULT_WEIGHT_PROPERTY: &str = "intensity";
+
+/// Seed of the area samples of a ground-truth mesh ([`read_truth`]).
+pub const TRUTH_SAMPLE_SEED: u64 = 1;
+
+/// Why the inputs of a meshing run could not be read. Each variant prints its cause unchanged.
+#[derive(Debug, thiserror::Error)]
+pub enum MeshInputError {
+    /// Reading a PLY file.
+    #[error(transparent)]
+    Read(#[from] MeshIoError),
+    /// Sampling the ground-truth mesh (a density that is not positive, an empty mesh).
+    #[error(transparent)]
+    TruthSamples(GeometryError),
+    /// The cloud lacks the named weight property.
+    #[error("{} has no vertex property '{name}'", path.display())]
+    NoProperty {
+        /// The cloud's file.
+        path: PathBuf,
+        /// The property asked for.
+        name: String,
+    },
+}
+
+/// The normals stored in `cloud`'s `nx`, `ny`, `nz` vertex properties, when it has all three.
+pub fn stored_normals(cloud: &PlyData) -> Option<Vec<Vec3>> {
+    let (x, y, z) = (
+        cloud.property("nx")?,
+        cloud.property("ny")?,
+        cloud.property("nz")?,
+    );
+    Some(
+        x.iter()
+            .zip(y)
+            .zip(z)
+            .map(|((&x, &y), &z)| Vec3::new(x, y, z))
+            .collect(),
+    )
+}
+
+/// A vertex property chosen to weigh the samples ([`weight_column`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WeightColumn<'a> {
+    /// The property's name.
+    pub property: &'a str,
+    /// Its values, one per vertex.
+    pub values: &'a [f32],
+}
+
+/// The sample weights of `cloud`, read from the file `path` (named in errors only): the
+/// property `name` when given; otherwise [`DEFAULT_WEIGHT_PROPERTY`] when the cloud has it and
+/// not `unweighted`; otherwise none (every sample alike).
+///
+/// # Errors
+/// [`MeshInputError::NoProperty`] when the cloud lacks `name`.
+pub fn weight_column<'a>(
+    cloud: &'a PlyData,
+    path: &Path,
+    name: Option<&'a str>,
+    unweighted: bool,
+) -> Result<Option<WeightColumn<'a>>, MeshInputError> {
+    let property = match (name, unweighted) {
+        (Some(name), _) => name,
+        (None, false) => DEFAULT_WEIGHT_PROPERTY,
+        (None, true) => return Ok(None),
+    };
+    match cloud.property(property) {
+        Some(values) => Ok(Some(WeightColumn { property, values })),
+        None if name.is_some() => Err(MeshInputError::NoProperty {
+            path: path.to_path_buf(),
+            name: property.to_string(),
+        }),
+        None => Ok(None),
+    }
+}
+
+/// The ground truth in the PLY file `path`: a mesh's surface sampled uniformly at
+/// `density_per_m2` points per m² (seed [`TRUTH_SAMPLE_SEED`]), or a point cloud (no faces) as
+/// is. Metres.
+///
+/// # Errors
+/// [`MeshInputError::Read`]; [`MeshInputError::TruthSamples`] as
+/// [`crate::metrics::sample_triangles`].
+pub fn read_truth(path: &Path, density_per_m2: f64) -> Result<Vec<Vec3>, MeshInputError> {
+    let t = ply::read_ply(path)?;
+    if t.faces.is_empty() {
+        return Ok(t.vertices);
+    }
+    crate::metrics::sample_triangles(&t.triangles(), density_per_m2, TRUTH_SAMPLE_SEED)
+        .map_err(MeshInputError::TruthSamples)
 }
 
 /// Options of [`mesh_cloud`].
@@ -117,6 +220,32 @@ pub struct MeshingReport {
     pub metrics: Option<MeshingMetrics>,
     /// Timings.
     pub time_s: MeshingTimings,
+}
+
+/// What weighed the samples of a meshing run ([`MeshRunReport::weights`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct WeightsUsed {
+    /// The input's vertex property.
+    pub property: String,
+    /// Its exponent ([`MeshingOptions::weight_power`]).
+    pub power: f32,
+}
+
+/// The `--report` of `has-sim mesh`: the [`MeshingReport`] (its fields at the top level) with
+/// the input file, the weights and the process's peak memory, which only the caller knows.
+#[derive(Clone, Debug, Serialize)]
+pub struct MeshRunReport {
+    /// The input cloud.
+    pub input: PathBuf,
+    /// The sample weights, if any.
+    pub weights: Option<WeightsUsed>,
+    /// Peak resident memory of the process, MiB.
+    pub peak_rss_mib: Option<f64>,
+    /// Peak resident memory right after the Poisson stage, MiB.
+    pub peak_rss_after_poisson_mib: Option<f64>,
+    /// The meshing's figures.
+    #[serde(flatten)]
+    pub meshing: MeshingReport,
 }
 
 /// What [`mesh_cloud`] produced: the data and its report.
@@ -298,6 +427,67 @@ mod tests {
             estimate_normals: false,
             weight_power: 1.0,
         }
+    }
+
+    #[test]
+    fn the_weights_are_the_named_property_else_intensity_and_a_missing_name_is_an_error() {
+        let cloud = PlyData::from_points(vec![Vec3::ZERO; 2])
+            .with_property("intensity", vec![1.0, 0.5])
+            .with_property("power", vec![4.0, 2.0]);
+        let path = Path::new("cloud.ply");
+        let w = weight_column(&cloud, path, None, false).unwrap().unwrap();
+        assert_eq!((w.property, w.values), ("intensity", &[1.0, 0.5][..]));
+        let w = weight_column(&cloud, path, Some("power"), false).unwrap();
+        assert_eq!(w.unwrap().values, [4.0, 2.0]);
+        assert!(weight_column(&cloud, path, None, true).unwrap().is_none());
+        let bare = PlyData::from_points(vec![Vec3::ZERO; 2]);
+        assert!(weight_column(&bare, path, None, false).unwrap().is_none());
+        let e = weight_column(&bare, path, Some("intensity"), false).unwrap_err();
+        assert_eq!(
+            e.to_string(),
+            "cloud.ply has no vertex property 'intensity'"
+        );
+        // Normals only with all three components.
+        assert!(stored_normals(&cloud).is_none());
+        let n = cloud
+            .with_property("nx", vec![0.0, 1.0])
+            .with_property("ny", vec![0.0, 0.0])
+            .with_property("nz", vec![1.0, 0.0]);
+        assert_eq!(stored_normals(&n).unwrap(), [Vec3::Z, Vec3::X]);
+    }
+
+    #[test]
+    fn a_truth_mesh_is_sampled_on_its_area_and_a_truth_cloud_taken_as_is() {
+        let d = std::env::temp_dir().join(format!("has-meshing-truth-{}", std::process::id()));
+        std::fs::create_dir_all(&d).unwrap();
+        // A 10 m × 10 m square at z = 1 as two triangles, and its four corners as a cloud.
+        let corners = [
+            Vec3::new(0.0, 0.0, 1.0),
+            Vec3::new(10.0, 0.0, 1.0),
+            Vec3::new(10.0, 10.0, 1.0),
+            Vec3::new(0.0, 10.0, 1.0),
+        ];
+        let mut square = PlyData::from_points(corners.to_vec());
+        square.faces = vec![[0, 1, 2], [0, 2, 3]];
+        let (mesh_path, cloud_path) = (d.join("square.ply"), d.join("corners.ply"));
+        ply::write_ply(&mesh_path, &square, Default::default()).unwrap();
+        let cloud = PlyData::from_points(corners.to_vec());
+        ply::write_ply(&cloud_path, &cloud, Default::default()).unwrap();
+        assert_eq!(read_truth(&cloud_path, 5.0).unwrap(), corners);
+        let samples = read_truth(&mesh_path, 5.0).unwrap();
+        assert!((400..=600).contains(&samples.len()), "{}", samples.len());
+        assert!(samples
+            .iter()
+            .all(|p| p.z == 1.0 && (0.0..=10.0).contains(&p.x) && (0.0..=10.0).contains(&p.y)));
+        assert!(matches!(
+            read_truth(&mesh_path, 0.0),
+            Err(MeshInputError::TruthSamples(_))
+        ));
+        assert!(matches!(
+            read_truth(&d.join("missing.ply"), 5.0),
+            Err(MeshInputError::Read(_))
+        ));
+        let _ = std::fs::remove_dir_all(&d);
     }
 
     #[test]

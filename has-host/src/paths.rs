@@ -45,6 +45,11 @@
 //!   and the carrier phase `e^{−j2π fc τ}`, as Sionna's path coefficients do; the channel at a
 //!   baseband offset `f` is then `Σ a·e^{−j2π f τ}` ([`crate::channel`]). Material parameters and
 //!   `λ` are taken at the carrier (narrowband).
+//!
+//! [`report`] holds the paths as typed reports (`has-sim paths --json`) and the parsers of the
+//! points and receivers files that name the ends.
+
+pub mod report;
 
 use std::collections::{HashMap, HashSet, VecDeque};
 

@@ -7,9 +7,8 @@ use anyhow::{bail, Context};
 use glam::Vec3;
 use has_host::io::ply;
 use has_host::mesh::{PoissonParams, ReconstructParams, Trim};
-use has_host::meshing::{self, MeshingOptions, MeshingReport};
+use has_host::meshing::{self, MeshRunReport, MeshingOptions, WeightsUsed};
 use has_host::metrics::CloudMetrics;
-use serde::Serialize;
 
 /// Options of the `mesh` subcommand.
 #[derive(clap::Args, Debug)]
@@ -129,31 +128,6 @@ fn summary_line(name: &str, m: &CloudMetrics) -> String {
     )
 }
 
-/// What weighed the samples.
-#[derive(Clone, Debug, Serialize)]
-pub struct WeightsUsed {
-    /// The input's vertex property.
-    pub property: String,
-    /// Its exponent.
-    pub power: f32,
-}
-
-/// The `--report` of `mesh`: the library's report with what only the command knows.
-#[derive(Clone, Debug, Serialize)]
-pub struct MeshRunReport {
-    /// The input cloud.
-    pub input: PathBuf,
-    /// The sample weights, if any.
-    pub weights: Option<WeightsUsed>,
-    /// Peak resident memory of the process, MiB.
-    pub peak_rss_mib: Option<f64>,
-    /// Peak resident memory right after the Poisson stage, MiB.
-    pub peak_rss_after_poisson_mib: Option<f64>,
-    /// The meshing's figures.
-    #[serde(flatten)]
-    pub meshing: MeshingReport,
-}
-
 /// Runs the subcommand.
 pub fn run(a: MeshArgs) -> anyhow::Result<()> {
     if let Some(q) = a.trim {
@@ -177,41 +151,12 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
     let input = ply::read_ply(&a.input)?;
     // The ground truth is read before any work, so a bad `--truth` leaves no mesh behind.
     let truth = match &a.truth {
-        Some(p) => {
-            let t = ply::read_ply(p)?;
-            Some(if t.faces.is_empty() {
-                t.vertices
-            } else {
-                has_host::metrics::sample_triangles(&t.triangles(), a.truth_density, 1)?
-            })
-        }
+        Some(p) => Some(meshing::read_truth(p, a.truth_density)?),
         None => None,
     };
     let points = &input.vertices;
-    let stored = match (
-        input.property("nx"),
-        input.property("ny"),
-        input.property("nz"),
-    ) {
-        (Some(x), Some(y), Some(z)) => Some(
-            x.iter()
-                .zip(y)
-                .zip(z)
-                .map(|((&x, &y), &z)| Vec3::new(x, y, z))
-                .collect::<Vec<_>>(),
-        ),
-        _ => None,
-    };
-    let column = match (&a.weights, a.unweighted) {
-        (Some(name), _) => Some(input.property(name).with_context(|| {
-            format!(
-                "--weights: {} has no vertex property '{name}'",
-                a.input.display()
-            )
-        })?),
-        (None, false) => input.property("intensity"),
-        (None, true) => None,
-    };
+    let column = meshing::weight_column(&input, &a.input, a.weights.as_deref(), a.unweighted)
+        .map_err(|e| anyhow::anyhow!("--weights: {e}"))?;
     let params = PoissonParams {
         depth: a.depth,
         screening: a.screening,
@@ -237,7 +182,8 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
     };
     // The same stages, in the same order, as `reconstruct`'s mesh
     // ([`has_host::mesh::reconstruct_oriented`]).
-    let mut meshed = meshing::mesh_cloud(points, stored, column, &opts)
+    let stored = meshing::stored_normals(&input);
+    let mut meshed = meshing::mesh_cloud(points, stored, column.map(|c| c.values), &opts)
         .with_context(|| a.input.display().to_string())?;
     let peak_rss_poisson = crate::resources::peak_rss_mib();
     has_host::io::save_mesh(
@@ -271,8 +217,8 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
     }
     let report = MeshRunReport {
         input: a.input.clone(),
-        weights: column.map(|_| WeightsUsed {
-            property: a.weights.as_deref().unwrap_or("intensity").to_string(),
+        weights: column.map(|c| WeightsUsed {
+            property: c.property.to_string(),
             power: a.weight_power,
         }),
         peak_rss_mib: crate::resources::peak_rss_mib(),

@@ -1,21 +1,22 @@
 //! `has-sim suite [--quick] --out DIR [--sites NAME,NAME]`: the reconstruction of every site of
 //! the scenario suite (`fixtures/suite/*.toml`, issue 13) and one table of the results.
 //!
-//! Each site (a scenario file; its name is the file stem) is reconstructed in turn by
-//! [`crate::reconstruct_cmd::run`] into `DIR/<site>/`, sorted by name or in the order given by
-//! `--sites`. Each site's typed report (the one it wrote to its `report.json`) gives a
-//! [`SuiteRow`]; `DIR/suite.json` holds the rows and `DIR/suite.md` the same rows as one
-//! Markdown table. A site that fails (an error, or a panic) is a row marked failed with its
-//! error; the other sites still run and the command exits non-zero at the end. The peak memory
-//! of a site is the process's peak since that site started (Linux; see [`crate::resources`]).
+//! Each site (a scenario file; its name is the file stem, [`has_host::suite::discover`]) is
+//! reconstructed in turn by [`crate::reconstruct_cmd::run`] into `DIR/<site>/`, sorted by name or
+//! in the order given by `--sites`. Each site's typed report (the one it wrote to its
+//! `report.json`) gives a [`SuiteRow`]; `DIR/suite.json` holds the [`SuiteReport`] and
+//! `DIR/suite.md` its rows as one Markdown table. A site that fails (an error, or a panic) is a
+//! row marked failed with its error; the other sites still run and the command exits non-zero at
+//! the end. The peak memory of a site is the process's peak since that site started (Linux; see
+//! [`crate::resources`]).
 
 use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use serde::Serialize;
+use has_host::suite::{self, SuiteReport, SuiteRow};
 
-use crate::reconstruct_cmd::{ReconstructArgs, RunReport};
+use crate::reconstruct_cmd::ReconstructArgs;
 
 /// The suite directory of the source tree, used when `fixtures/suite` is not below the current
 /// directory.
@@ -38,140 +39,6 @@ pub struct SuiteArgs {
     /// tree's.
     #[arg(long)]
     pub suite_dir: Option<PathBuf>,
-}
-
-/// One site's line of the suite table, from its reconstruction's report (`None`: the site
-/// failed, or its report lacks the figure).
-#[derive(Clone, Debug, Default, Serialize)]
-pub struct SuiteRow {
-    /// Site name (scenario file stem).
-    pub site: String,
-    /// Scenario file.
-    pub scenario: String,
-    /// Whether the reconstruction finished.
-    pub ok: bool,
-    /// The error of a failed site, one line.
-    pub error: Option<String>,
-    /// √Chamfer distance of the fused imaging cloud, m.
-    pub cloud_sqrt_cd_m: Option<f64>,
-    /// F-score at 1.5 m of the fused cloud, %.
-    pub cloud_fscore_1_5m: Option<f64>,
-    /// √Chamfer distance of the mesh, m.
-    pub mesh_sqrt_cd_m: Option<f64>,
-    /// F-score at 1.5 m of the mesh, %.
-    pub mesh_fscore_1_5m: Option<f64>,
-    /// Share of the mesh area farther than 1.5 m from the truth, %.
-    pub mesh_false_surface_pct: Option<f64>,
-    /// Mesh area / true surface area.
-    pub mesh_area_ratio: Option<f64>,
-    /// Share of the true surface in line of sight of some imaged pair, %.
-    pub observable_pct: Option<f64>,
-    /// Imaging (back-projection of every pair) wall time, s.
-    pub imaging_s: Option<f64>,
-    /// Peak resident memory during the site's run, MiB.
-    pub peak_rss_mib: Option<f64>,
-}
-
-impl SuiteRow {
-    /// The row of a site whose reconstruction reported `r`.
-    fn from_report(site: &str, scenario: &Path, r: &RunReport) -> SuiteRow {
-        let rec = &r.reconstruction;
-        let pc = &rec.imaging.point_cloud.metrics;
-        let mesh = rec.mesh.as_ref();
-        SuiteRow {
-            site: site.to_string(),
-            scenario: scenario.display().to_string(),
-            ok: true,
-            error: None,
-            cloud_sqrt_cd_m: Some(pc.sqrt_chamfer_m),
-            cloud_fscore_1_5m: Some(pc.fscores.fscore_1_5m),
-            mesh_sqrt_cd_m: mesh.map(|m| m.metrics.sqrt_chamfer_m),
-            mesh_fscore_1_5m: mesh.map(|m| m.metrics.fscores.fscore_1_5m),
-            mesh_false_surface_pct: mesh.map(|m| m.false_surface_pct_1_5m),
-            mesh_area_ratio: mesh.map(|m| m.area_ratio),
-            observable_pct: Some(rec.imaging.ground_truth.observable_pct),
-            imaging_s: Some(rec.timings_s.imaging),
-            peak_rss_mib: r.peak_rss_mib,
-        }
-    }
-
-    /// The row of a site that failed with `error`.
-    fn failed(site: &str, scenario: &Path, error: String) -> SuiteRow {
-        SuiteRow {
-            site: site.to_string(),
-            scenario: scenario.display().to_string(),
-            error: Some(error),
-            ..SuiteRow::default()
-        }
-    }
-}
-
-/// The whole `suite.json`.
-#[derive(Serialize)]
-struct SuiteReport<'a> {
-    preset: &'static str,
-    suite_dir: String,
-    sites: &'a [SuiteRow],
-    failed: usize,
-}
-
-/// The sites of the suite directory: (name, path), sorted by name.
-fn discover(dir: &Path) -> Result<Vec<(String, PathBuf)>> {
-    let entries =
-        std::fs::read_dir(dir).with_context(|| format!("suite directory {}", dir.display()))?;
-    let mut sites = Vec::new();
-    for e in entries {
-        let path = e
-            .with_context(|| format!("reading {}", dir.display()))?
-            .path();
-        if path.extension().is_some_and(|x| x == "toml") {
-            if let Some(stem) = path.file_stem().and_then(|s| s.to_str()) {
-                sites.push((stem.to_string(), path.clone()));
-            }
-        }
-    }
-    sites.sort();
-    if sites.is_empty() {
-        bail!(
-            "suite directory {}: no *.toml scenario in it",
-            dir.display()
-        );
-    }
-    Ok(sites)
-}
-
-/// `all` restricted to `names` (in that order); every name must be a site.
-fn select(all: &[(String, PathBuf)], names: &[String]) -> Result<Vec<(String, PathBuf)>> {
-    if names.is_empty() {
-        return Ok(all.to_vec());
-    }
-    names
-        .iter()
-        .map(|n| {
-            all.iter().find(|(s, _)| s == n).cloned().with_context(|| {
-                let known: Vec<&str> = all.iter().map(|(s, _)| s.as_str()).collect();
-                format!("--sites: no site '{n}'; the suite has {}", known.join(", "))
-            })
-        })
-        .collect()
-}
-
-/// Reconstructs one site into `out`; a panic becomes an error.
-fn run_site(scenario: &Path, out: &Path, quick: bool) -> Result<RunReport> {
-    let args = ReconstructArgs::defaults(Some(scenario.to_path_buf()), out, quick);
-    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        crate::reconstruct_cmd::run(args)
-    })) {
-        Ok(r) => r,
-        Err(p) => {
-            let msg = p
-                .downcast_ref::<String>()
-                .map(String::as_str)
-                .or_else(|| p.downcast_ref::<&str>().copied())
-                .unwrap_or("(no message)");
-            bail!("panicked: {msg}")
-        }
-    }
 }
 
 /// `x` with `digits` decimals, or `—`.
@@ -241,41 +108,32 @@ pub fn run(args: SuiteArgs) -> Result<()> {
             dir.display()
         );
     }
-    let sites = select(&discover(&dir)?, &args.sites)?;
+    let sites = suite::select(&suite::discover(&dir)?, &args.sites)
+        .map_err(|e| anyhow::anyhow!("--sites: {e}"))?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("creating {}", args.out.display()))?;
     let preset = if args.quick { "quick" } else { "default" };
     let mut rows = Vec::new();
-    for (k, (site, path)) in sites.iter().enumerate() {
-        println!("== suite: {site} ({}/{}) ==", k + 1, sites.len());
-        let out = args.out.join(site);
+    for (k, site) in sites.iter().enumerate() {
+        println!("== suite: {} ({}/{}) ==", site.name, k + 1, sites.len());
+        let out = args.out.join(&site.name);
         crate::resources::reset_peak_rss();
-        let row = match run_site(path, &out, args.quick) {
-            Ok(r) => SuiteRow::from_report(site, path, &r),
-            Err(e) => {
-                let msg = format!("{e:#}").replace('\n', " ");
-                eprintln!("has-sim: suite: {site} failed: {msg}");
-                SuiteRow::failed(site, path, msg)
-            }
-        };
+        let row = suite::run_site(site, || {
+            let args = ReconstructArgs::defaults(Some(site.scenario.clone()), &out, args.quick);
+            crate::reconstruct_cmd::run(args).map(|r| (r.reconstruction, r.peak_rss_mib))
+        });
+        if let Some(msg) = &row.error {
+            eprintln!("has-sim: suite: {} failed: {msg}", site.name);
+        }
         rows.push(row);
     }
-    let failed: Vec<&str> = rows
-        .iter()
-        .filter(|r| !r.ok)
-        .map(|r| r.site.as_str())
-        .collect();
-    let report = SuiteReport {
-        preset,
-        suite_dir: dir.display().to_string(),
-        sites: &rows,
-        failed: failed.len(),
-    };
+    let report = SuiteReport::new(preset, &dir, rows);
+    let failed = report.failed_sites();
     let json = serde_json::to_string_pretty(&report)?;
     has_host::io::atomic_write(&args.out.join("suite.json"), |w| {
         std::io::Write::write_all(w, json.as_bytes())
     })?;
-    let md = render_md(&rows, preset);
+    let md = render_md(&report.sites, preset);
     has_host::io::atomic_write(&args.out.join("suite.md"), |w| {
         std::io::Write::write_all(w, md.as_bytes())
     })?;
@@ -284,7 +142,7 @@ pub fn run(args: SuiteArgs) -> Result<()> {
         bail!(
             "{} of {} suite sites failed: {} (see {})",
             failed.len(),
-            rows.len(),
+            report.sites.len(),
             failed.join(", "),
             args.out.join("suite.md").display()
         );
@@ -300,9 +158,7 @@ mod tests {
     fn a_failed_site_is_a_row_marked_failed_with_its_error() {
         let ok = SuiteRow {
             site: "a".into(),
-            scenario: "a.toml".into(),
             ok: true,
-            error: None,
             cloud_sqrt_cd_m: Some(1.25),
             cloud_fscore_1_5m: Some(91.04),
             mesh_sqrt_cd_m: Some(1.0),
@@ -312,23 +168,15 @@ mod tests {
             observable_pct: Some(80.0),
             imaging_s: Some(12.0),
             peak_rss_mib: Some(100.0),
+            ..SuiteRow::default()
         };
-        let bad = SuiteRow::failed("b", Path::new("b.toml"), "boom".into());
-        let md = render_md(&[ok, bad], "quick");
+        let b = suite::Site {
+            name: "b".into(),
+            scenario: PathBuf::from("b.toml"),
+        };
+        let md = render_md(&[ok, SuiteRow::failed(&b, "boom")], "quick");
         assert!(md.contains("| a | 1.250 | 91.0 | 1.000 | 93.0 | 4.0 | 1.10 | 80.0 | 12.0 | 100 |"));
         assert!(md.contains("| b | **failed** |"));
         assert!(md.contains("- b (b.toml): boom"));
-    }
-
-    #[test]
-    fn unknown_site_names_the_known_ones() {
-        let all = vec![
-            ("x".to_string(), PathBuf::from("x.toml")),
-            ("y".to_string(), PathBuf::from("y.toml")),
-        ];
-        let e = select(&all, &["z".into()]).unwrap_err().to_string();
-        assert!(e.contains("'z'") && e.contains("x, y"), "{e}");
-        let s = select(&all, &["y".into(), "x".into()]).unwrap();
-        assert_eq!(s[0].0, "y");
     }
 }
