@@ -224,8 +224,8 @@ pub struct MeshReport {
     pub visibility_filter: Option<VisibilityFiltered>,
     /// Points left out of the mesher's input by the facing rule.
     pub facing_away_points: usize,
-    /// Density trim fraction.
-    pub trim_median_fraction: f32,
+    /// Density trim fraction, if any (none by default).
+    pub trim_median_fraction: Option<f32>,
     /// What weighs the samples.
     pub sample_weights: &'static str,
     /// Area samples per m² for the metrics.

@@ -42,9 +42,10 @@ pub struct ReconstructArgs {
     /// 2^depth). Default: a finest cell of half the imaging voxel, whatever the cloud's extent.
     #[arg(long)]
     pub mesh_depth: Option<u32>,
-    /// Density trim of the mesh, fraction of the median vertex support density.
-    #[arg(long, default_value_t = imaging::surface::DEFAULT_TRIM_MEDIAN)]
-    pub mesh_trim_median: f32,
+    /// Density trim of the mesh, fraction of the median vertex support density, in (0, 1].
+    /// Default: no trim; the mesh is clipped to the support distance of the fused points.
+    #[arg(long)]
+    pub mesh_trim_median: Option<f32>,
     /// Before meshing, remove the fused points that a coarser first-pass surface hides from every
     /// sensor that observed them (ghosts; has_host::mesh::visibility). Off by default: on the
     /// bundled factory it helped the quick preset (mesh √CD 1.009 → 0.980 m) but hurt the
@@ -66,7 +67,7 @@ impl ReconstructArgs {
             fixed_point: false,
             raw_ofdm: false,
             mesh_depth: None,
-            mesh_trim_median: imaging::surface::DEFAULT_TRIM_MEDIAN,
+            mesh_trim_median: None,
             visibility_filter: false,
             no_mesh: false,
         }
@@ -206,11 +207,8 @@ pub fn build_twin(scenario: Option<PathBuf>, out: &Path, quick: bool) -> Result<
 /// Checks the options that only the later stages use, so that a bad value fails before the
 /// imaging rather than after it.
 fn check_args(args: &ReconstructArgs) -> Result<()> {
-    if !(args.mesh_trim_median > 0.0 && args.mesh_trim_median <= 1.0) {
-        anyhow::bail!(
-            "--mesh-trim-median: {} is not a fraction in (0, 1]",
-            args.mesh_trim_median
-        );
+    if let Some(f) = args.mesh_trim_median.filter(|f| !(*f > 0.0 && *f <= 1.0)) {
+        anyhow::bail!("--mesh-trim-median: {f} is not a fraction in (0, 1]");
     }
     if let Some(d) = args.mesh_depth {
         if !(1..=10).contains(&d) {
@@ -390,10 +388,13 @@ fn report_md(report: &RunReport) -> Result<String> {
         )?;
         writeln!(
             s,
-            "\nMesh: screened Poisson depth {} (cell {:.3} m), trimmed below {:.2} × the median support density, clipped to the imaging region and to {:.2} m (half the coarsest pair resolution cell) of the fused points, components under {:.2} of the largest area dropped; {:.1} s. Sampled at {:?} points per m² for the metrics.",
+            "\nMesh: screened Poisson depth {} (cell {:.3} m), {}, clipped to the imaging region and to {:.2} m (half the coarsest pair resolution cell) of the fused points, components under {:.2} of the largest area dropped; {:.1} s. Sampled at {:?} points per m² for the metrics.",
             m.depth,
             m.cell_m,
-            m.trim_median_fraction,
+            match m.trim_median_fraction {
+                Some(f) => format!("trimmed below {f:.2} × the median support density"),
+                None => "no density trim".to_string(),
+            },
             m.support_distance_m.unwrap_or(f32::NAN),
             m.min_component_fraction,
             m.seconds,
