@@ -535,10 +535,21 @@ impl System {
     }
 }
 
+/// `Σ a·b` in f64, in fixed chunks summed in order: the same bits at any thread count and load
+/// (rayon's `sum` splits where work-stealing happens to, so the rounding, and the solver's
+/// iterates, could change from run to run).
 fn dot(a: &[f32], b: &[f32]) -> f64 {
-    a.par_iter()
-        .zip(b)
-        .map(|(&x, &y)| x as f64 * y as f64)
+    const CHUNK: usize = 4096;
+    a.par_chunks(CHUNK)
+        .zip(b.par_chunks(CHUNK))
+        .map(|(x, y)| {
+            x.iter()
+                .zip(y)
+                .map(|(&x, &y)| x as f64 * y as f64)
+                .sum::<f64>()
+        })
+        .collect::<Vec<f64>>()
+        .into_iter()
         .sum()
 }
 
@@ -1040,6 +1051,28 @@ pub fn trim(mesh: &TriMesh, density: &[f32], rule: Trim) -> Result<TriMesh, Geom
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_solver_dot_product_has_the_same_bits_at_any_thread_count() {
+        // Values spanning many magnitudes, so that any change of summation order changes the
+        // rounding.
+        let a: Vec<f32> = (0..50_000)
+            .map(|i| ((i * 7919 % 1000) as f32 - 500.0) * 10f32.powi(i % 9 - 4))
+            .collect();
+        let b: Vec<f32> = (0..50_000).map(|i| 1.0 + (i % 13) as f32 * 0.37).collect();
+        let at = |threads: usize| {
+            rayon::ThreadPoolBuilder::new()
+                .num_threads(threads)
+                .build()
+                .unwrap()
+                .install(|| dot(&a, &b))
+                .to_bits()
+        };
+        let one = at(1);
+        for threads in [2, 3, 8] {
+            assert_eq!(at(threads), one, "{threads} threads");
+        }
+    }
 
     #[test]
     fn poisson_rejects_bad_parameters_and_degenerate_input() {
