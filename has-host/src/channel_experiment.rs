@@ -38,6 +38,10 @@ use crate::prediction::{compare_ue, twin_objects, with_material, ChannelSpec, Ue
 use crate::scenario::SceneSpecError;
 use crate::scene::{Object, Scene, SceneError};
 
+pub mod exports;
+
+pub use exports::{errors_by_param, errors_csv, ue_map, ues_csv, UeMap};
+
 /// Report keys of the five parameters, in column order (the field names of [`PerParam`]).
 pub const KEYS: [&str; 5] = ["delay_ns", "aoa_deg", "aod_deg", "zoa_deg", "zod_deg"];
 
@@ -490,6 +494,22 @@ pub struct ChannelReport {
     pub threads: usize,
     /// Definitions.
     pub conventions: Conventions,
+}
+
+/// The whole `report.json` of `has-sim channel`: the report under the key `channel`.
+#[derive(Clone, Copy, Debug, Serialize)]
+pub struct ChannelReportFile<'a> {
+    /// The experiment's report.
+    pub channel: &'a ChannelReport,
+}
+
+impl ChannelReport {
+    /// Paths traced per second over both scenes: every traced path of the true scene and the
+    /// twin over the two tracing times (preparation excluded).
+    pub fn paths_per_s_both(&self) -> f64 {
+        let (p, t) = (&self.paths, &self.timings_s);
+        (p.true_total + p.twin_total) as f64 / (t.trace_true + t.trace_twin).max(1e-9)
+    }
 }
 
 /// One scene traced from the BS to every UE.

@@ -1,7 +1,8 @@
 //! The paper's §1 as one library call: image every planned base station–terminal pair, fuse,
 //! mesh the fused cloud into the digital twin's surface, and score cloud and mesh against the
 //! truth. `has-sim reconstruct` is this call plus files; `channel` and `localize` ray-trace the
-//! [`Reconstruction::surface`]'s mesh when no twin is given.
+//! mesh of a [`Twin`] (the reconstruction with the default options, [`reconstruct_twin`]) when no
+//! twin is given.
 //!
 //! Two steps, so that a caller can show per-pair progress before the long one:
 //! [`prepare`] builds the world and plans the pairs ([`Prepared`]); [`Prepared::reconstruct`]
@@ -22,6 +23,7 @@ use crate::imaging::{
     Surface, SurfaceOptions, VisibilityFiltered, World,
 };
 use crate::knn::GeometryError;
+use crate::mesh::TriMesh;
 use crate::metrics::{surface_area_metrics, CloudComparison, CloudMetrics, ObservableCompleteness};
 
 /// Why a reconstruction failed.
@@ -90,6 +92,19 @@ pub fn reconstruct(
     prepare(sc)?.reconstruct(opts, progress)
 }
 
+/// The digital twin of `sc`: [`prepare`] then [`Prepared::reconstruct_twin`] (the reconstruction
+/// with [`ReconstructOptions::default`]), for callers that do not show per-pair progress before
+/// the imaging starts. Apply the quick preset to `sc` before, if wanted.
+///
+/// # Errors
+/// [`ReconstructError`].
+pub fn reconstruct_twin(
+    sc: &ImagingScenario,
+    progress: &(dyn Fn(usize, u64, u64) + Sync),
+) -> Result<Twin, ReconstructError> {
+    prepare(sc)?.reconstruct_twin(progress)
+}
+
 impl Default for ReconstructOptions {
     /// f32 imaging of range-compressed profiles, the surface with its default options.
     fn default() -> Self {
@@ -112,6 +127,36 @@ pub struct Reconstruction {
     pub mesh_samples: Vec<Vec3>,
     /// The figures.
     pub report: ReconstructReport,
+}
+
+/// A digital twin ([`reconstruct_twin`], [`Prepared::reconstruct_twin`]): a reconstruction with
+/// [`ReconstructOptions::default`], whose surface stage therefore ran; its mesh is the twin that
+/// `channel` and `localize` ray-trace when no mesh is given.
+pub struct Twin(Reconstruction);
+
+impl Twin {
+    /// The twin's mesh: the reconstructed surface.
+    pub fn mesh(&self) -> &TriMesh {
+        &self.surface().mesh
+    }
+
+    /// The surface stage's result: the mesh and the mesher's input.
+    pub fn surface(&self) -> &Surface {
+        self.0
+            .surface
+            .as_ref()
+            .expect("a twin is reconstructed with its surface stage")
+    }
+
+    /// The whole reconstruction: clouds, surface, report.
+    pub fn reconstruction(&self) -> &Reconstruction {
+        &self.0
+    }
+
+    /// The whole reconstruction, by value.
+    pub fn into_reconstruction(self) -> Reconstruction {
+        self.0
+    }
 }
 
 /// One imaged pair in a [`ReconstructReport`].
@@ -287,6 +332,19 @@ pub struct ReconstructReport {
 }
 
 impl Prepared<'_> {
+    /// The digital twin: [`Prepared::reconstruct`] with [`ReconstructOptions::default`] (f32
+    /// imaging of range-compressed profiles, the surface with its default options).
+    ///
+    /// # Errors
+    /// [`ReconstructError`].
+    pub fn reconstruct_twin(
+        self,
+        progress: &(dyn Fn(usize, u64, u64) + Sync),
+    ) -> Result<Twin, ReconstructError> {
+        self.reconstruct(&ReconstructOptions::default(), progress)
+            .map(Twin)
+    }
+
     /// Images, fuses, meshes and scores (module docs). `progress(pair, done, total)` reports
     /// frames of pair `pair` (an index into [`Prepared::plans`]).
     ///

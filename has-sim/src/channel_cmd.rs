@@ -4,10 +4,12 @@
 //! percentiles, CDFs, the UE map and beam-selection agreement.
 //!
 //! The experiment is the scenario's `[channel]` table (`has_host::prediction::ChannelSpec`), run
-//! by `has_host::channel_experiment::run_channel_experiment` (tracing, matching, statistics); this
-//! command loads, shows progress, renders the report and writes the files. Writes into DIR: `report.json` (key `channel`), `report.md`, `errors.csv`
-//! (every matched pair), `ues.csv` (every UE), `cdf_delay.svg`, `cdf_angles.svg`, `ue_map.svg`, and `twin/` when the
-//! twin is reconstructed here.
+//! by `has_host::channel_experiment::run_channel_experiment` (tracing, matching, statistics), and
+//! its tables and plot data come from `has_host::channel_experiment::exports`; this command loads,
+//! shows progress, renders the Markdown report and the plots and writes the files. Writes into
+//! DIR: `report.json` (key `channel`), `report.md`, `errors.csv` (every matched pair), `ues.csv`
+//! (every UE), `cdf_delay.svg`, `cdf_angles.svg`, `ue_map.svg`, and `twin/` when the twin is
+//! reconstructed here.
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -15,14 +17,14 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use glam::{DVec3, Vec3};
 use has_host::channel_experiment::{
-    run_channel_experiment, ChannelReport, ChannelRunInfo, ErrorStats, MatchedPair, TraceStage,
+    errors_by_param, errors_csv, run_channel_experiment, ue_map, ues_csv, ChannelReport,
+    ChannelReportFile, ChannelRunInfo, ErrorStats, TraceStage, UeMap,
 };
 use has_host::imaging::ImagingScenario;
 use has_host::io::obj::read_obj;
-use has_host::prediction::{ChannelSpec, UeOutcome};
-use has_host::{Material, Scene};
+use has_host::prediction::ChannelSpec;
+use has_host::Material;
 use indicatif::{ProgressBar, ProgressStyle};
 use plotters::style::RGBColor;
 use serde::Serialize;
@@ -45,12 +47,6 @@ pub struct ChannelArgs {
     /// The twin mesh (OBJ) to ray-trace; default: run `reconstruct` into DIR/twin first.
     #[arg(long)]
     pub twin: Option<PathBuf>,
-}
-
-/// `report.json`: the report under the key `channel`.
-#[derive(Serialize)]
-struct ReportFile<'a> {
-    channel: &'a ChannelReport,
 }
 
 fn load(args: &ChannelArgs) -> Result<(ImagingScenario, ChannelSpec, String)> {
@@ -90,41 +86,6 @@ impl TraceBars {
             bar.finish();
         }
     }
-}
-
-/// One line of errors.csv.
-fn csv_line(p: &MatchedPair) -> String {
-    let (m, a, b) = (&p.matched, &p.source, &p.target);
-    let e = p.errors();
-    format!(
-        "{},{},{},{},{},{:.3},{:.4},{},{},{:.4},{:.5},{:.5},{:.5},{:.5},{:.5}\n",
-        p.ue,
-        p.direction.name(),
-        m.from,
-        a.order,
-        u8::from(p.via_building),
-        a.gain_db,
-        a.delay_s * 1e9,
-        m.to,
-        b.order,
-        m.distance,
-        e[0],
-        e[1],
-        e[2],
-        e[3],
-        e[4]
-    )
-}
-
-/// Every matched pair, one line each.
-fn errors_csv(pairs: &[MatchedPair]) -> String {
-    let mut csv = String::from(
-        "ue,direction,path,order,via_building,gain_db,delay_ns,matched_path,matched_order,distance,delay_err_ns,aoa_err_deg,aod_err_deg,zoa_err_deg,zod_err_deg\n",
-    );
-    for p in pairs {
-        csv.push_str(&csv_line(p));
-    }
-    csv
 }
 
 /// Runs the command.
@@ -168,17 +129,18 @@ pub fn run(args: ChannelArgs) -> Result<()> {
     let c = &exp.report;
 
     // Outputs.
-    let text = serde_json::to_string_pretty(&serde_json::to_value(ReportFile { channel: c })?)?;
+    let text =
+        serde_json::to_string_pretty(&serde_json::to_value(ChannelReportFile { channel: c })?)?;
     write_text(&args.out.join("report.json"), &text)?;
     write_text(&args.out.join("errors.csv"), &errors_csv(&exp.pairs))?;
     write_text(&args.out.join("report.md"), &report_md(c)?)?;
     write_text(&args.out.join("ues.csv"), &ues_csv(&exp.ues, &exp.outcomes))?;
-    let col = |k: usize| -> Vec<f64> { exp.pairs.iter().map(|p| p.errors()[k]).collect() };
+    let e = errors_by_param(&exp.pairs);
     plot::cdf(
         &args.out.join("cdf_delay.svg"),
         "Delay error of matched paths (twin vs true scene)",
         "delay error (ns)",
-        &[("delay", &col(0), RGBColor(200, 40, 40))],
+        &[("delay", &e.delay_ns, RGBColor(200, 40, 40))],
         1.0,
     )?;
     plot::cdf(
@@ -186,24 +148,24 @@ pub fn run(args: ChannelArgs) -> Result<()> {
         "Angle errors of matched paths (twin vs true scene)",
         "angle error (degrees)",
         &[
-            ("AoA", &col(1), RGBColor(200, 40, 40)),
-            ("AoD", &col(2), RGBColor(20, 70, 200)),
-            ("ZoA", &col(3), RGBColor(30, 150, 60)),
-            ("ZoD", &col(4), RGBColor(150, 60, 170)),
+            ("AoA", &e.aoa_deg, RGBColor(200, 40, 40)),
+            ("AoD", &e.aod_deg, RGBColor(20, 70, 200)),
+            ("ZoA", &e.zoa_deg, RGBColor(30, 150, 60)),
+            ("ZoD", &e.zod_deg, RGBColor(150, 60, 170)),
         ],
         1.0,
     )?;
-    ue_map(
-        &args.out.join("ue_map.svg"),
-        &sc,
+    let map = ue_map(
         &exp.truth,
+        &spec.known_objects,
         &exp.ues,
         &exp.outcomes,
         spec.bs(),
     )?;
+    plot_ue_map(&args.out.join("ue_map.svg"), &map)?;
 
     let p90 = c.all.p90.to_array().map(num);
-    let (t, p) = (&c.timings_s, &c.paths);
+    let p = &c.paths;
     println!(
         "channel: {} of {} UEs kept, {} true / {} twin paths in the window; p90 delay {:.2} ns, AoA {:.2}°, AoD {:.2}°, ZoA {:.2}°, ZoD {:.2}°  [paper: 3.5 ns, 3°, 3°, 1°, 1°]",
         c.ues.kept,
@@ -222,35 +184,11 @@ pub fn run(args: ChannelArgs) -> Result<()> {
         spec.codebook_cols,
         c.beam.agreement_pct,
         c.beam.within_1db_pct,
-        (p.true_total + p.twin_total) as f64 / (t.trace_true + t.trace_twin).max(1e-9),
-        t.wall,
+        c.paths_per_s_both(),
+        c.timings_s.wall,
         args.out.display()
     );
     run_dir.finish()
-}
-
-/// One line per UE: position, kept, strongest true path, windowed path counts, beams.
-fn ues_csv(ues: &[DVec3], outcomes: &[UeOutcome]) -> String {
-    let mut s = String::from(
-        "ue,x,y,z,kept,strongest_true_db,true_paths,twin_paths,true_best_beam,predicted_beam,beam_loss_db\n",
-    );
-    for (i, (p, o)) in ues.iter().zip(outcomes).enumerate() {
-        let opt = |v: Option<String>| v.unwrap_or_default();
-        s.push_str(&format!(
-            "{i},{:.3},{:.3},{:.3},{},{},{},{},{},{},{}\n",
-            p.x,
-            p.y,
-            p.z,
-            u8::from(o.kept),
-            opt(o.strongest_true_db.map(|g| format!("{g:.3}"))),
-            o.true_paths.len(),
-            o.twin_paths.len(),
-            opt(o.beam.map(|b| b.true_best.to_string())),
-            opt(o.beam.and_then(|b| b.predicted).map(|b| b.to_string())),
-            opt(o.beam.map(|b| format!("{:.3}", b.loss_db()))),
-        ));
-    }
-    s
 }
 
 fn write_text(path: &Path, text: &str) -> Result<()> {
@@ -260,43 +198,16 @@ fn write_text(path: &Path, text: &str) -> Result<()> {
 
 /// Top view: the buildings (surface samples of every object not in `known_objects`), kept and
 /// dropped UEs, the BS.
-fn ue_map(
-    path: &Path,
-    sc: &ImagingScenario,
-    truth: &Scene,
-    ues: &[DVec3],
-    outcomes: &[UeOutcome],
-    bs: DVec3,
-) -> Result<()> {
-    let known = sc
-        .channel
-        .as_ref()
-        .map(|c| c.known_objects.clone())
-        .unwrap_or_default();
-    let tris: Vec<[Vec3; 3]> = truth
-        .objects
-        .iter()
-        .filter(|o| !known.contains(&o.name))
-        .flat_map(|o| o.triangles.iter().copied())
-        .collect();
-    let scene_pts = if tris.is_empty() {
-        Vec::new()
-    } else {
-        has_host::metrics::sample_triangles(&tris, 2.0, 1)?
-    };
-    let (kept, dropped): (Vec<_>, Vec<_>) = ues.iter().zip(outcomes).partition(|(_, o)| o.kept);
-    let kept: Vec<Vec3> = kept.iter().map(|(p, _)| p.as_vec3()).collect();
-    let dropped: Vec<Vec3> = dropped.iter().map(|(p, _)| p.as_vec3()).collect();
-    let bs = [bs.as_vec3()];
+fn plot_ue_map(path: &Path, map: &UeMap) -> Result<()> {
     plot::projection(
         path,
         "UEs kept (red: strongest path < max loss) and dropped (blue), BS (black), buildings (grey), top view",
         View::Top,
         &[
-            ("buildings", &scene_pts, RGBColor(170, 170, 170), 1),
-            ("kept UEs", &kept, RGBColor(200, 40, 40), 3),
-            ("dropped UEs", &dropped, RGBColor(20, 70, 200), 3),
-            ("BS", &bs, RGBColor(0, 0, 0), 7),
+            ("buildings", &map.buildings, RGBColor(170, 170, 170), 1),
+            ("kept UEs", &map.kept, RGBColor(200, 40, 40), 3),
+            ("dropped UEs", &map.dropped, RGBColor(20, 70, 200), 3),
+            ("BS", &[map.bs], RGBColor(0, 0, 0), 7),
         ],
     )
 }

@@ -2,19 +2,22 @@
 //! monostatic base station detects and localizes a cylinder crossing the factory yard, with ECA
 //! alone and with the environment prior from the reconstructed mesh; writes `report.json` (key
 //! `localize`), `report.md`, detections PLY and SVG plots (paper Fig. 11 and range–Doppler maps).
+//! The run, the report and the files' data are `has_host::localize`'s (`run_localize`,
+//! `LocalizeRunReport`, `localize::outputs`); this command adds progress, Markdown and plots.
 
 use std::path::PathBuf;
 use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use glam::Vec3;
 use has_host::imaging::ImagingScenario;
 use has_host::io::save_cloud;
-use has_host::localize::{run_localize, LocalizeReport, LocalizeResult, LocalizeSpec};
+use has_host::localize::{
+    run_localize, DetectionCloud, LocalizeReport, LocalizeResult, LocalizeRunReport, LocalizeSpec,
+    RdStage,
+};
 use indicatif::{ProgressBar, ProgressStyle};
 use plotters::style::RGBColor;
-use serde::Serialize;
 
 use crate::plot::{self, View};
 use crate::reconstruct_cmd::{build_twin, load_scenario};
@@ -53,15 +56,6 @@ fn load(args: &LocalizeArgs) -> Result<(ImagingScenario, LocalizeSpec, String)> 
     Ok((sc, spec, name))
 }
 
-/// `report.json` of `localize`: the library's report with what only the command knows.
-#[derive(Serialize)]
-struct RunReport {
-    scenario: String,
-    preset: &'static str,
-    twin: String,
-    localize: LocalizeReport,
-}
-
 /// Runs the command.
 pub fn run(args: LocalizeArgs) -> Result<()> {
     let t0 = Instant::now();
@@ -83,15 +77,9 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
     )?;
     let scene = sc.scene.build()?;
     let (twin_name, twin, twin_built_s) = if args.truth_twin {
-        let objects: Vec<_> = scene
-            .objects
-            .iter()
-            .filter(|o| !spec.ground_objects.contains(&o.name))
-            .cloned()
-            .collect();
         (
             "the true buildings (--truth-twin)".to_string(),
-            objects,
+            spec.true_buildings(&scene),
             None,
         )
     } else {
@@ -119,9 +107,9 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
     let run_s = t1.elapsed().as_secs_f64();
 
     write_outputs(&args, &spec, &result)?;
-    let mut report = RunReport {
+    let mut report = LocalizeRunReport {
         scenario: scenario_name,
-        preset: if args.quick { "quick" } else { "default" },
+        preset: if args.quick { "quick" } else { "default" }.to_string(),
         twin: twin_name,
         localize: LocalizeReport::new(&spec, &result, run_s, twin_built_s),
     };
@@ -156,36 +144,22 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
 }
 
 fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -> Result<()> {
-    let truth: Vec<Vec3> = r.frames.iter().flat_map(|f| f.truth.clone()).collect();
+    let truth = r.truth_points();
     save_cloud(&args.out.join("truth.ply"), &truth, vec![])?;
-    let det = |pass: usize| -> (Vec<Vec3>, Vec<f32>, Vec<f32>, Vec<f32>) {
-        let mut p = Vec::new();
-        let (mut fr, mut snr, mut dop) = (Vec::new(), Vec::new(), Vec::new());
-        for f in &r.frames {
-            for d in &f.detections[pass] {
-                p.push(d.pos);
-                fr.push(f.index as f32);
-                snr.push(d.snr_db);
-                dop.push(d.doppler_hz);
-            }
-        }
-        (p, fr, snr, dop)
+    let save = |file: &str, c: DetectionCloud| -> Result<Vec<glam::Vec3>> {
+        let columns = vec![
+            ("frame", c.frame),
+            ("snr_db", c.snr_db),
+            ("doppler_hz", c.doppler_hz),
+        ];
+        save_cloud(&args.out.join(file), &c.points, columns)?;
+        Ok(c.points)
     };
     let grey = RGBColor(200, 60, 60);
     let blue = RGBColor(20, 70, 200);
     let green = RGBColor(20, 150, 60);
-    let (eca_pts, a, b, c) = det(r.eca_best);
-    save_cloud(
-        &args.out.join("detections_eca.ply"),
-        &eca_pts,
-        vec![("frame", a), ("snr_db", b), ("doppler_hz", c)],
-    )?;
-    let (env_pts, a, b, c) = det(r.env_pass);
-    save_cloud(
-        &args.out.join("detections_env.ply"),
-        &env_pts,
-        vec![("frame", a), ("snr_db", b), ("doppler_hz", c)],
-    )?;
+    let eca_pts = save("detections_eca.ply", r.detection_cloud(r.eca_best))?;
+    let env_pts = save("detections_env.ply", r.detection_cloud(r.env_pass))?;
     let eca_label = format!("{} detections", r.passes[r.eca_best]);
     plot::projection(
         &args.out.join("detections_eca_top.svg"),
@@ -224,39 +198,34 @@ fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -
     )?;
     // Range–Doppler maps at the beam towards the target, for the frame with the slowest radial
     // speed (where the clutter notch hurts most) and the fastest.
-    let (slow, fast) = r.slowest_and_fastest_frames();
-    let (nb, nd) = (r.cube[0], r.cube[2]);
-    let fmax = spec.doppler_max_hz();
-    for (tag, fi) in [("slow", slow), ("fast", fast)] {
-        let fr = &r.frames[fi];
-        for (name, pass) in [("before", 0usize), ("eca", r.eca_best), ("env", r.env_pass)] {
-            let v = r.range_doppler_db(fi, pass);
-            let title = format!(
-                "Range–Doppler at the target's beam, frame {} (radial {:.2} m/s), {}",
-                fi,
-                fr.radial_speed_mps,
-                match name {
-                    "before" => "before suppression".to_string(),
-                    "eca" => format!("after {}", r.passes[r.eca_best]),
-                    _ => "after the environment prior + ECA".to_string(),
-                }
-            );
-            plot::heatmap(
-                &args.out.join(format!("rd_{tag}_{name}.svg")),
-                &title,
-                ("range (m)", "Doppler (Hz)"),
-                (r.range_window_m[0], r.range_window_m[1]),
-                (-fmax, fmax),
-                (nb, nd),
-                &v,
-                (-5.0, 60.0),
-            )?;
-        }
+    for m in r.range_doppler_maps(spec) {
+        let title = format!(
+            "Range–Doppler at the target's beam, frame {} (radial {:.2} m/s), {}",
+            m.frame,
+            m.radial_speed_mps,
+            match m.stage {
+                RdStage::Before => "before suppression".to_string(),
+                RdStage::Eca => format!("after {}", r.passes[m.pass]),
+                RdStage::Env => "after the environment prior + ECA".to_string(),
+            }
+        );
+        plot::heatmap(
+            &args
+                .out
+                .join(format!("rd_{}_{}.svg", m.which.name(), m.stage.name())),
+            &title,
+            ("range (m)", "Doppler (Hz)"),
+            (m.range_m[0], m.range_m[1]),
+            (m.doppler_hz[0], m.doppler_hz[1]),
+            (m.bins[0], m.bins[1]),
+            &m.db,
+            (-5.0, 60.0),
+        )?;
     }
     Ok(())
 }
 
-fn report_md(r: &RunReport, res: &LocalizeResult) -> Result<String> {
+fn report_md(r: &LocalizeRunReport, res: &LocalizeResult) -> Result<String> {
     use std::fmt::Write;
     let l = &r.localize;
     let mut s = String::new();

@@ -10,7 +10,9 @@ use clap::Args;
 use has_host::imaging::{self, ImagingScenario, RunOptions};
 use has_host::io::{save_cloud, save_mesh};
 use has_host::metrics::ObservableCompleteness;
-use has_host::reconstruction::{self, ReconstructOptions, ReconstructReport, Reconstruction};
+use has_host::reconstruction::{
+    self, Prepared, ReconstructError, ReconstructOptions, ReconstructReport, Reconstruction,
+};
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use plotters::style::RGBColor;
 use serde::Serialize;
@@ -196,11 +198,15 @@ pub struct RunReport {
 }
 
 /// Runs `reconstruct` on `scenario` (default: the bundled factory), with the quick preset if
-/// `quick`, writing everything into `out`, and returns the path of the mesh it wrote
-/// (`out/mesh.obj`): the digital twin that `channel` and `localize` ray-trace when no mesh is given.
+/// `quick`: the library's digital twin ([`Prepared::reconstruct_twin`]), with every file of
+/// `reconstruct` written into `out`; returns the path of the mesh it wrote (`out/mesh.obj`), which
+/// `channel` and `localize` ray-trace when no mesh is given.
 pub fn build_twin(scenario: Option<PathBuf>, out: &Path, quick: bool) -> Result<PathBuf> {
-    run(ReconstructArgs::defaults(scenario, out, quick))
-        .context("reconstructing the digital twin")?;
+    let args = ReconstructArgs::defaults(scenario, out, quick);
+    execute(&args, |p, progress| {
+        Ok(p.reconstruct_twin(progress)?.into_reconstruction())
+    })
+    .context("reconstructing the digital twin")?;
     Ok(out.join("mesh.obj"))
 }
 
@@ -236,9 +242,33 @@ pub const OUTPUTS: [&str; 12] = [
 
 /// Runs the command; returns what it wrote to `report.json`.
 pub fn run(args: ReconstructArgs) -> Result<RunReport> {
-    let t0 = Instant::now();
     check_args(&args)?;
-    let (sc, scenario_name) = load(&args)?;
+    let opts = ReconstructOptions {
+        run: RunOptions {
+            fixed_point: args.fixed_point,
+            raw_ofdm: args.raw_ofdm,
+        },
+        surface: (!args.no_mesh).then_some(imaging::SurfaceOptions {
+            depth: args.mesh_depth,
+            trim_median: args.mesh_trim_median,
+            visibility_filter: args.visibility_filter,
+        }),
+    };
+    execute(&args, |p, progress| p.reconstruct(&opts, progress))
+}
+
+/// Loads the scenario of `args`, has `reconstruct` reconstruct it while per-pair progress bars
+/// show, writes the files and the report into `args.out` and prints the summary; returns the
+/// report.
+fn execute(
+    args: &ReconstructArgs,
+    reconstruct: impl FnOnce(
+        Prepared<'_>,
+        &(dyn Fn(usize, u64, u64) + Sync),
+    ) -> Result<Reconstruction, ReconstructError>,
+) -> Result<RunReport> {
+    let t0 = Instant::now();
+    let (sc, scenario_name) = load(args)?;
     let run_dir = crate::run_dir::RunDir::start(&args.out, &OUTPUTS)?;
     let prepared = reconstruction::prepare(&sc)?;
 
@@ -257,18 +287,7 @@ pub fn run(args: ReconstructArgs) -> Result<RunReport> {
             b
         })
         .collect();
-    let opts = ReconstructOptions {
-        run: RunOptions {
-            fixed_point: args.fixed_point,
-            raw_ofdm: args.raw_ofdm,
-        },
-        surface: (!args.no_mesh).then_some(imaging::SurfaceOptions {
-            depth: args.mesh_depth,
-            trim_median: args.mesh_trim_median,
-            visibility_filter: args.visibility_filter,
-        }),
-    };
-    let rec = prepared.reconstruct(&opts, &|k, d, t| {
+    let rec = reconstruct(prepared, &|k, d, t| {
         bars[k].set_length(t);
         bars[k].set_position(d);
     })?;

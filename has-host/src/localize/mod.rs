@@ -32,13 +32,15 @@
 
 pub mod chain;
 pub mod config;
+pub mod outputs;
 pub mod report;
 pub mod run;
 pub mod target;
 
 pub use chain::{Chain, ClutterMap, Cube, Detection, SlowTimeEca, Suppression};
 pub use config::{LocalizeOverrides, LocalizeSpec};
-pub use report::{improvement_pct, FrameReport, LocalizeReport};
+pub use outputs::{DetectionCloud, RangeDopplerMap, RdFrame, RdStage};
+pub use report::{improvement_pct, FrameReport, LocalizeReport, LocalizeRunReport};
 pub use run::{run_localize, FrameResult, LocalizeResult, ModeSummary};
 
 /// Why the localization run failed.

@@ -120,6 +120,20 @@ pub struct LocalizeReport {
     pub conventions: LocalizeConventions,
 }
 
+/// The whole `report.json` of `has-sim localize`: a [`LocalizeReport`] with what only the caller
+/// knows.
+#[derive(Clone, Debug, Serialize)]
+pub struct LocalizeRunReport {
+    /// The scenario's name (its file, or the bundled one).
+    pub scenario: String,
+    /// The preset, `"quick"` or `"default"`.
+    pub preset: String,
+    /// The twin: its mesh file, or what stood in for it.
+    pub twin: String,
+    /// The run's report.
+    pub localize: LocalizeReport,
+}
+
 impl LocalizeReport {
     /// The report of `r`, a run of `spec` that took `run_s` seconds after a twin built in
     /// `twin_reconstruction_s` (`None`: given). `timings_s.wall` is `run_s` plus the twin's time;
