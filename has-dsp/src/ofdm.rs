@@ -50,7 +50,13 @@ pub fn range_bin_spacing_m(bandwidth_hz: f64, zero_pad: usize) -> Result<f64, Ds
             value: 0.0,
         });
     }
-    Ok(C_M_PER_S / (bandwidth_hz * zero_pad as f64))
+    Ok(bin_spacing_m(bandwidth_hz, zero_pad))
+}
+
+/// [`range_bin_spacing_m`] for parameters the caller has already validated (`bandwidth_hz`
+/// finite and > 0, `zero_pad` ≥ 1): the one place of the formula `c / (B·zero_pad)`.
+pub fn bin_spacing_m(bandwidth_hz: f64, zero_pad: usize) -> f64 {
+    C_M_PER_S / (bandwidth_hz * zero_pad as f64)
 }
 
 /// Unambiguous bistatic path length `c / Δf = n·c / B` in metres.

@@ -138,7 +138,7 @@ impl EchoConfig {
 
     /// Profile bin spacing `c/(B·zero_pad)` in metres of bistatic path.
     pub fn bin_spacing_m(&self) -> f64 {
-        has_dsp::geometry::C_M_PER_S / (self.bandwidth_hz * self.zero_pad as f64)
+        has_dsp::ofdm::bin_spacing_m(self.bandwidth_hz, self.zero_pad)
     }
 
     /// Carrier wavelength, metres.

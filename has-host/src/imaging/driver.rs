@@ -176,8 +176,7 @@ fn pair_geometry(sc: &ImagingScenario, plan: &PairPlan) -> PairGeometry {
         (sc.radar.bandwidth_mhz * 1e6) as f32,
     );
     let cell_m3 = r_res * xv_res * xz_res;
-    let dr =
-        has_dsp::geometry::C_M_PER_S / (sc.radar.bandwidth_mhz * 1e6 * sc.radar.zero_pad as f64);
+    let dr = has_dsp::ofdm::bin_spacing_m(sc.radar.bandwidth_mhz * 1e6, sc.radar.zero_pad);
     // Bistatic range is convex in the point, so over the box its maximum is at a corner; its
     // minimum is bounded below by the distances to the box. Margins cover the array's and the
     // aperture's extent and the pulse's tails.
