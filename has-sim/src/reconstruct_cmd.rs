@@ -44,10 +44,10 @@ pub struct ReconstructArgs {
     /// 2^depth). Default: a finest cell of half the imaging voxel, whatever the cloud's extent.
     #[arg(long)]
     pub mesh_depth: Option<u32>,
-    /// Density trim of the mesh, fraction of the median vertex support density, in (0, 1].
-    /// Default: no trim; the mesh is clipped to the support distance of the fused points.
-    #[arg(long)]
-    pub mesh_trim_median: Option<f32>,
+    /// Density trim of the mesh, fraction of the median vertex support density, in [0, 1]
+    /// (0: no trim, the mesh is only clipped to the support distance of the fused points).
+    #[arg(long, default_value_t = imaging::surface::DEFAULT_TRIM_MEDIAN)]
+    pub mesh_trim_median: f32,
     /// Before meshing, remove the fused points that a coarser first-pass surface hides from every
     /// sensor that observed them (ghosts; has_host::mesh::visibility). Off by default: on the
     /// bundled factory it helped the quick preset (mesh √CD 1.009 → 0.980 m) but hurt the
@@ -69,7 +69,7 @@ impl ReconstructArgs {
             fixed_point: false,
             raw_ofdm: false,
             mesh_depth: None,
-            mesh_trim_median: None,
+            mesh_trim_median: imaging::surface::DEFAULT_TRIM_MEDIAN,
             visibility_filter: false,
             no_mesh: false,
         }
@@ -213,8 +213,9 @@ pub fn build_twin(scenario: Option<PathBuf>, out: &Path, quick: bool) -> Result<
 /// Checks the options that only the later stages use, so that a bad value fails before the
 /// imaging rather than after it.
 fn check_args(args: &ReconstructArgs) -> Result<()> {
-    if let Some(f) = args.mesh_trim_median.filter(|f| !(*f > 0.0 && *f <= 1.0)) {
-        anyhow::bail!("--mesh-trim-median: {f} is not a fraction in (0, 1]");
+    let f = args.mesh_trim_median;
+    if !(0.0..=1.0).contains(&f) {
+        anyhow::bail!("--mesh-trim-median: {f} is not a fraction in [0, 1]");
     }
     if let Some(d) = args.mesh_depth {
         if !(1..=10).contains(&d) {
@@ -250,7 +251,7 @@ pub fn run(args: ReconstructArgs) -> Result<RunReport> {
         },
         surface: (!args.no_mesh).then_some(imaging::SurfaceOptions {
             depth: args.mesh_depth,
-            trim_median: args.mesh_trim_median,
+            trim_median: (args.mesh_trim_median > 0.0).then_some(args.mesh_trim_median),
             visibility_filter: args.visibility_filter,
         }),
     };

@@ -28,7 +28,8 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
         .expect("observable_any_pairing_pct");
     assert!(0.0 < seen && seen <= any && any <= 100.0, "{seen} {any}");
     // The mesh of the quick cloud (imaging::surface: samples weighted by their amplitude, points
-    // facing away from their pairs left out, no density trim, clipped to the imaging region and
+    // facing away from their pairs left out, trimmed below 0.1 × the median support density,
+    // clipped to the imaging region and
     // to half the coarsest pair resolution cell, components under 2 % of the largest dropped)
     // must be better than the cloud it came from on both figures (paper §1.3's claim, and issue
     // 13's), and within the same quick bounds.

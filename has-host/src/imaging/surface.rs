@@ -8,12 +8,13 @@
 //! - each sample weighs its detection's `|I|` relative to its pair's peak (the fused cloud's
 //!   `intensity`): a cluster of weak detections leaves no surface of its own
 //!   ([`crate::mesh::screened_poisson_weighted`]);
-//! - no density trim by default: the support clip below is the rule for what the imaging
-//!   supports. A trim at a fraction of the median vertex density ([`SurfaceOptions::trim_median`],
-//!   the former default 0.25) removed surface the clip keeps — interpolated between samples a
-//!   resolution cell apart, mostly true — and its threshold, a median over the mesh's own
-//!   vertices, moved with points far away (7 ground points of 59 949 dropped the office's hidden
-//!   passage). Measured on the suite's clouds, see `docs/results.md`;
+//! - density trim below [`DEFAULT_TRIM_MEDIAN`] of the median vertex support density
+//!   ([`SurfaceOptions::trim_median`]): what the support clip keeps but only scattered weak
+//!   detections support — above all the caps Poisson closes over roofs from their vertically
+//!   smeared echoes. The fraction is not derived: it was chosen on the whole suite at both
+//!   presets (`docs/results.md`, "One mesh rule for every site"), where 0.25 also removed
+//!   interpolated true surface (the office's hidden passage) and no trim kept the caps (default
+//!   factory_site and street_row meshes worse than their clouds);
 //! - clipped to the imaging region's box, and to [`super::support_distance_m`] of the samples
 //!   (half the coarsest resolution cell: a fused point stands for a cell, farther is
 //!   extrapolation);
@@ -58,19 +59,31 @@ pub const VISIBILITY_MARGIN_VOXELS: f32 = 4.0;
 /// 0.956–1.167 m).
 pub const CELL_PER_VOXEL: f32 = 0.5;
 
-/// Settings of [`surface`] (the default: the cell from the voxel, no trim, no visibility
-/// filter).
-#[derive(Clone, Debug, Default, PartialEq)]
+/// Default density trim, fraction of the median vertex support density (module docs).
+pub const DEFAULT_TRIM_MEDIAN: f32 = 0.1;
+
+/// Settings of [`surface`].
+#[derive(Clone, Debug, PartialEq)]
 pub struct SurfaceOptions {
     /// Poisson grid depth (finest cell = 1.2 × largest extent / 2^depth); `None`: a finest cell
     /// of [`CELL_PER_VOXEL`] imaging voxels, whatever the cloud's extent.
     pub depth: Option<u32>,
-    /// Density trim, fraction of the median vertex support density, in (0, 1]; `None` (the
-    /// default): no trim (module docs).
+    /// Density trim, fraction of the median vertex support density, in (0, 1]; `None`: no trim
+    /// (default [`DEFAULT_TRIM_MEDIAN`], module docs).
     pub trim_median: Option<f32>,
     /// Leave out the points a coarser first-pass surface hides from every pair that observed
     /// them (module docs).
     pub visibility_filter: bool,
+}
+
+impl Default for SurfaceOptions {
+    fn default() -> Self {
+        SurfaceOptions {
+            depth: None,
+            trim_median: Some(DEFAULT_TRIM_MEDIAN),
+            visibility_filter: false,
+        }
+    }
 }
 
 /// What the visibility filter did.
