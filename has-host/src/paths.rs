@@ -1241,24 +1241,30 @@ fn same_interaction(x: &Interaction, y: &Interaction) -> bool {
     }
 }
 
+/// A line-of-sight path for tests of the path records: τ = 100 ns, |a| = 1e-3 (−60 dB) at phase
+/// π/2; AoD 0.5, ZoD 1, AoA −0.5, ZoA 2 rad.
+#[cfg(test)]
+pub(crate) fn example_los_path() -> Path {
+    Path {
+        delay_s: 1e-7,
+        length_m: 29.979_245_8,
+        a: Complex64::new(0.0, 1e-3),
+        jones: [[Complex64::new(0.0, 0.0); 2]; 2],
+        aod: 0.5,
+        zod: 1.0,
+        aoa: -0.5,
+        zoa: 2.0,
+        interactions: vec![Interaction::Los],
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
 
     #[test]
     fn a_path_record_is_in_report_units_and_names_what_each_reflection_meets() {
-        // τ = 100 ns, |a| = 1e-3 (−60 dB) at phase π/2; angles 0.5, 1, −0.5, 2 rad.
-        let los = Path {
-            delay_s: 1e-7,
-            length_m: 29.979_245_8,
-            a: Complex64::new(0.0, 1e-3),
-            jones: [[Complex64::new(0.0, 0.0); 2]; 2],
-            aod: 0.5,
-            zod: 1.0,
-            aoa: -0.5,
-            zoa: 2.0,
-            interactions: vec![Interaction::Los],
-        };
+        let los = example_los_path();
         let names = ["ground".to_string(), "wall".to_string()];
         let r = los.record(&names);
         assert!((r.delay_ns - 100.0).abs() < 1e-9 && (r.gain_db + 60.0).abs() < 1e-9);

@@ -221,17 +221,7 @@ mod tests {
 
     #[test]
     fn json_has_documented_keys_in_order_and_parses() {
-        let p = Path {
-            delay_s: 1e-7,
-            length_m: 29.979_245_8,
-            a: Complex64::new(0.0, 1e-3),
-            jones: [[Complex64::new(0.0, 0.0); 2]; 2],
-            aod: 0.5,
-            zod: 1.0,
-            aoa: -0.5,
-            zoa: 2.0,
-            interactions: vec![Interaction::Los],
-        };
+        let p = crate::paths::example_los_path();
         let wall = Path {
             interactions: vec![Interaction::Reflection {
                 object: 1,
