@@ -129,13 +129,17 @@ pub fn denials(
         let dir = d / len;
         let own = single(i).then_some(cluster[i]);
         let n = ((len - 2.0 * support_m) / step).floor() as usize;
+        let r2 = support_m * support_m;
         let blocked = (0..=n).any(|k| {
-            all.within(s + dir * (k as f32 * step), support_m)
-                .iter()
-                .any(|&(j, _)| {
-                    let j = j as usize;
-                    !(own.is_some() && single(j) && cluster[j] == cluster[i])
-                })
+            let q = s + dir * (k as f32 * step);
+            match own {
+                // Any fused point blocks: the nearest one decides, no list gathered.
+                None => all.nearest(q).1 <= r2,
+                Some(c) => all
+                    .within(q, support_m)
+                    .iter()
+                    .any(|&(j, _)| !(single(j as usize) && cluster[j as usize] == c)),
+            }
         });
         !blocked && terrain.visible(s, p)
     };
