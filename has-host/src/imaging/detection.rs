@@ -62,28 +62,28 @@ pub fn detected(i2: f32, c: f32, p: f32, r: Option<f32>, alpha: f32, beta: f32) 
 
 /// The grating-lobe test of one detected voxel of magnitude `a = |I|` (`imaging.alias_test`,
 /// [`crate::imaging::sensors::PlanarArray::grating_aliases`]): `true` when the same image holds a
-/// stronger echo within the box of half-extents `half_m` (metres, at least one voxel of edge
-/// `voxel_m` on each axis) around any of the voxel's `aliases` — the pair cannot tell the two
-/// apart, and the weaker is the lobe. `lookup` gives `|I|` at a position, or `None` where nothing
-/// was imaged (an alias there decides nothing).
+/// stronger echo within the box of half-extents `half` (metres, at least one voxel of edge
+/// `voxel_m` on each axis) around any of the voxel's `aliases` (each `(alias, half)`) — the pair
+/// cannot tell the two apart, and the weaker is the lobe. `lookup` gives `|I|` at a position, or
+/// `None` where nothing was imaged (an alias there decides nothing).
 ///
-/// The box is the pair's resolution cell at the voxel ([`alias_window_m`]), not one voxel: the
-/// alias is exact only for a far-field panel and one transmit position, and the suite's panels
-/// (1 m wide at 40–75 m, far field `2D²/λ` ≈ 67 m) see the buildings in their Fresnel zone, where
-/// the lobe is displaced and defocused by up to its own width. Measured on the street site's
-/// default preset: the lobes of the workshop's west wall, imaged 10–14 m west of the tower as a
-/// 370-point ghost wall, had their aliases 0.5–2.5 m from the wall (two of them below the ground
-/// the wall stands on), where a one-voxel box found nothing stronger.
+/// The box is the pair's resolution cell at the alias ([`alias_window_m`],
+/// [`crate::imaging::driver::alias_boxes`]), not one voxel: the alias is exact only for a
+/// far-field panel and one transmit position, and the suite's panels (1 m wide at 40–75 m, far
+/// field `2D²/λ` ≈ 67 m) see the buildings in their Fresnel zone, where the lobe is displaced and
+/// defocused by up to its own width. Measured on the street site's default preset: the lobes of
+/// the workshop's west wall, imaged 10–14 m west of the tower as a 370-point ghost wall, had their
+/// aliases 0.5–2.5 m from the wall (two of them below the ground the wall stands on), where a
+/// one-voxel box found nothing stronger.
 pub fn alias_is_stronger(
-    aliases: &[glam::Vec3],
+    aliases: &[(glam::Vec3, glam::Vec3)],
     a: f32,
-    half_m: glam::Vec3,
     voxel_m: f32,
     lookup: impl Fn(glam::Vec3) -> Option<f32>,
 ) -> bool {
     let n = |h: f32| ((h / voxel_m).round() as i32).max(1);
-    let (nx, ny, nz) = (n(half_m.x), n(half_m.y), n(half_m.z));
-    aliases.iter().any(|&q| {
+    aliases.iter().any(|&(q, half_m)| {
+        let (nx, ny, nz) = (n(half_m.x), n(half_m.y), n(half_m.z));
         (-nz..=nz).any(|k| {
             (-ny..=ny).any(|j| {
                 (-nx..=nx).any(|i| {
@@ -587,17 +587,16 @@ mod tests {
             }
         };
         let one = Vec3::splat(0.5);
-        assert!(alias_is_stronger(&[alias], 3.0, one, 0.5, image));
+        assert!(alias_is_stronger(&[(alias, one)], 3.0, 0.5, image));
         // The true echo is the stronger one: it stays.
-        assert!(!alias_is_stronger(&[alias], 5.0, one, 0.5, image));
+        assert!(!alias_is_stronger(&[(alias, one)], 5.0, 0.5, image));
         // Equal strength cannot be told apart: both stay.
-        assert!(!alias_is_stronger(&[alias], 4.0, one, 0.5, image));
+        assert!(!alias_is_stronger(&[(alias, one)], 4.0, 0.5, image));
         // No alias (a λ/2 panel), or an alias nowhere imaged: nothing to compare.
-        assert!(!alias_is_stronger(&[], 0.1, one, 0.5, image));
+        assert!(!alias_is_stronger(&[], 0.1, 0.5, image));
         assert!(!alias_is_stronger(
-            &[Vec3::new(500.0, 0.0, 0.0)],
+            &[(Vec3::new(500.0, 0.0, 0.0), one)],
             0.1,
-            one,
             0.5,
             image
         ));
@@ -606,10 +605,10 @@ mod tests {
         let low = |p: Vec3| -> Option<f32> {
             (p.distance(alias - Vec3::new(0.0, 0.0, 2.0)) < 0.1).then_some(4.0)
         };
-        assert!(!alias_is_stronger(&[alias], 3.0, one, 0.5, low));
+        assert!(!alias_is_stronger(&[(alias, one)], 3.0, 0.5, low));
         let cell = alias_window_m(0.4, 0.2, 1.8, 4.4);
-        assert!(alias_is_stronger(&[alias], 3.0, cell, 0.5, low));
-        assert!(!alias_is_stronger(&[alias], 5.0, cell, 0.5, low));
+        assert!(alias_is_stronger(&[(alias, cell)], 3.0, 0.5, low));
+        assert!(!alias_is_stronger(&[(alias, cell)], 5.0, 0.5, low));
     }
 
     #[test]
