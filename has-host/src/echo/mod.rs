@@ -49,6 +49,7 @@
 //! Units: metres, hertz, radians; positions `Vec3` in the scene frame.
 
 mod kernel;
+pub mod noise;
 mod scatterers;
 mod synth;
 

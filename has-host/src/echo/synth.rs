@@ -17,10 +17,10 @@ use glam::{DVec3, Vec3};
 use num_complex::{Complex32, Complex64};
 use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
 use super::kernel::floor_fast;
+use super::noise::{noise_stream, ComplexGaussian};
 use super::{check_pos, EchoConfig, EchoError, PulseKernel, ScattererSet};
 use crate::propagation::{free_space_amplitude, fresnel_reflection};
 use has_dsp::geometry::C_M_PER_S;
@@ -416,14 +416,11 @@ impl EchoSynth {
             Noise::Power(p) => p,
         };
         if var > 0.0 {
-            let sd = (var / 2.0).sqrt();
+            let noise = ComplexGaussian::with_power(var);
             out.par_chunks_mut(n).enumerate().for_each(|(e, row)| {
-                let mut rng = ChaCha8Rng::seed_from_u64(seed);
-                rng.set_stream(e as u64);
+                let mut rng = noise_stream(seed, e as u64);
                 for y in row {
-                    let re: f64 = rng.sample(StandardNormal);
-                    let im: f64 = rng.sample(StandardNormal);
-                    *y += Complex32::new((re * sd) as f32, (im * sd) as f32);
+                    *y += noise.sample(&mut rng);
                 }
             });
         }

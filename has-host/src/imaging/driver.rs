@@ -50,7 +50,6 @@ use has_dsp::range::{RangeCompressor, RangeConfig, RangeMode};
 use num_complex::Complex32;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
-use rand_distr::{Distribution, StandardNormal};
 use rayon::prelude::*;
 
 use super::centroid::skirt_to_centroid;
@@ -62,6 +61,7 @@ use super::detection::{
 };
 use super::run::World;
 use super::sensors::{pair_cell_m3, pair_resolution_m, PlanarArray, VirtualAperture};
+use crate::echo::noise::ComplexGaussian;
 use crate::echo::{EchoConfig, EchoError, EchoSynth, Noise, ScattererSet, VisibilityCache};
 use crate::scene::Scene;
 
@@ -230,13 +230,15 @@ pub fn held_frames_bytes(sc: &ImagingScenario, plan: &PairPlan) -> u64 {
         .saturating_mul(8 * copies)
 }
 
-/// Adds complex white Gaussian noise of power `var` to `rows` (one row per element), seeded per
-/// (seed, frame, element) so the result does not depend on thread scheduling.
+/// Adds complex white Gaussian noise of power `var` ([`ComplexGaussian`]) to `rows` (one row per
+/// element), seeded per (seed, frame, element) so the result does not depend on thread
+/// scheduling. (The frame and element are mixed into the seed, not a stream of
+/// [`crate::echo::noise::noise_stream`]: kept, so the imaging frames keep their bits.)
 fn add_noise(rows: &mut [Complex32], row_len: usize, var: f64, seed: u64, frame: usize) {
     if var <= 0.0 {
         return;
     }
-    let sd = (var / 2.0).sqrt();
+    let noise = ComplexGaussian::with_power(var);
     rows.par_chunks_mut(row_len)
         .enumerate()
         .for_each(|(e, row)| {
@@ -244,9 +246,7 @@ fn add_noise(rows: &mut [Complex32], row_len: usize, var: f64, seed: u64, frame:
                 seed ^ (frame as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15) ^ ((e as u64) << 40),
             );
             for z in row {
-                let re: f64 = StandardNormal.sample(&mut rng);
-                let im: f64 = StandardNormal.sample(&mut rng);
-                *z += Complex32::new((re * sd) as f32, (im * sd) as f32);
+                *z += noise.sample(&mut rng);
             }
         });
 }

@@ -16,12 +16,10 @@
 
 use glam::{DVec3, Vec3};
 use num_complex::{Complex32 as C32, Complex64};
-use rand::{Rng, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-use rand_distr::StandardNormal;
 use rayon::prelude::*;
 
 use super::LocalizeError;
+use crate::echo::noise::{noise_stream, ComplexGaussian};
 use crate::echo::{bistatic_amplitude, ScattererSet};
 use crate::propagation::fresnel_reflection;
 use has_dsp::geometry::C_M_PER_S;
@@ -104,7 +102,7 @@ pub fn synth_symbol(
         });
     }
     let half = n / 2;
-    let sd = (sigma2 / 2.0).sqrt();
+    let noise = ComplexGaussian::with_power(sigma2);
     out.par_chunks_mut(n)
         .zip(elements.par_iter())
         .enumerate()
@@ -144,14 +142,11 @@ pub fn synth_symbol(
                     }
                 }
             }
-            let mut rng = ChaCha8Rng::seed_from_u64(seed);
-            rng.set_stream(e as u64);
+            let mut rng = noise_stream(seed, e as u64);
             for ((y, hk), s) in row.iter_mut().zip(&h).zip(symbol) {
                 *y = s * hk;
-                if sd > 0.0 {
-                    let re: f64 = rng.sample(StandardNormal);
-                    let im: f64 = rng.sample(StandardNormal);
-                    *y += C32::new((re * sd) as f32, (im * sd) as f32);
+                if noise.is_on() {
+                    *y += noise.sample(&mut rng);
                 }
             }
         });
