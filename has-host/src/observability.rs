@@ -59,7 +59,7 @@ pub fn observed_by_any<'a>(sets: impl IntoIterator<Item = &'a [bool]>, n: usize)
 /// As [`imaging::build_world`] and [`imaging::plan_pairs`].
 pub fn observability(sc: &ImagingScenario) -> Result<ObservabilityReport, RunError> {
     let world = imaging::build_world(sc)?;
-    let planned = imaging::plan_pairs(sc)?;
+    let planned = imaging::choose_pairs(sc, &world)?;
     let every = imaging::every_pairing(sc);
     let is_planned = |p: &PairPlan| {
         planned

@@ -69,7 +69,7 @@ pub struct Prepared<'a> {
 pub fn prepare(sc: &ImagingScenario) -> Result<Prepared<'_>, ReconstructError> {
     let t0 = Instant::now();
     let world = imaging::build_world(sc)?;
-    let plans = imaging::plan_pairs(sc)?;
+    let plans = imaging::choose_pairs(sc, &world)?;
     Ok(Prepared {
         scenario: sc,
         world,

@@ -264,9 +264,27 @@ pub struct ImagingSpec {
     /// echoes ([`super::terrain_echo`]).
     #[serde(default = "default_true")]
     pub terrain_echo_test: bool,
+    /// How each aperture's base station is chosen when `[[pairs]]` is not given (among those
+    /// whose panel faces the region's centre): `"resolution"` (default), the finest resolution
+    /// cell at the region's centre; `"survey"`, the one whose coarse pass detects the most of
+    /// the site (`imaging::survey_pair`) — what the pair sees, from its own data, at the cost of
+    /// one coarse pass (and its frames) per candidate.
+    #[serde(default)]
+    pub pairing: Pairing,
     /// Seed of the scatterer sampling and the noise.
     #[serde(default = "default_one_u64")]
     pub seed: u64,
+}
+
+/// How an aperture's base station is chosen (see [`ImagingSpec::pairing`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Pairing {
+    /// The finest resolution cell at the region's centre.
+    #[default]
+    Resolution,
+    /// The most coarse-pass detections ([`crate::imaging::survey_pair`]).
+    Survey,
 }
 
 /// How the imaging driver detects surface voxels (see [`ImagingSpec::detection`]).

@@ -11,12 +11,15 @@ pub mod sensors;
 pub mod surface;
 pub mod terrain_echo;
 
-pub use config::{Detection, ImagingScenario, ScenarioError};
-pub use driver::{image_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions};
+pub use config::{Detection, ImagingScenario, Pairing, ScenarioError};
+pub use driver::{
+    image_pair, survey_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions,
+};
 pub use run::{
-    build_world, check_memory, every_pairing, fuse, memory_estimate, observable_truth,
-    observing_pairs, observing_sensors, plan_pairs, resolution_cell_m, run_imaging, share_pct,
-    support_distance_m, FusedCloud, RunError, RunResult, Terrain, World,
+    build_world, check_memory, choose_pairs, every_pairing, facing_base_stations, fuse,
+    memory_estimate, observable_truth, observing_pairs, observing_sensors, plan_pairs,
+    resolution_cell_m, run_imaging, share_pct, support_distance_m, survey_pairs, FusedCloud,
+    RunError, RunResult, Terrain, World,
 };
 pub use sensors::{nyquist_spacing_m, pair_resolution_m, PlanarArray, VirtualAperture};
 pub use surface::{surface, Surface, SurfaceOptions, VisibilityFiltered};

@@ -27,9 +27,9 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use super::config::ImagingScenario;
+use super::config::{ImagingScenario, Pairing};
 use super::confirmation::{confirmed, PairSight};
-use super::driver::{image_pair, ImagingError, PairImage, PairPlan, RunOptions};
+use super::driver::{image_pair, survey_pair, ImagingError, PairImage, PairPlan, RunOptions};
 use super::sensors::{nyquist_spacing_m, pair_resolution_m, vertical_extent_m};
 use super::terrain_echo::terrain_echoes;
 use rayon::prelude::*;
@@ -419,25 +419,31 @@ pub fn default_positions(sc: &ImagingScenario, ai: usize) -> usize {
     (ap.length_m() / d).ceil() as usize + 1
 }
 
-/// The pairs to image (see module docs), in aperture order.
+/// The pairs to image: the scenario's `[[pairs]]` if given, else by `imaging.pairing` —
+/// [`plan_pairs`] (the finest resolution cell) or [`survey_pairs`] (the most detections).
+///
+/// # Errors
+/// [`RunError::NoPairs`] if no base station faces the region; [`RunError`] from the survey.
+pub fn choose_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, RunError> {
+    if sc.pairs.is_empty() && sc.imaging.pairing == Pairing::Survey {
+        survey_pairs(sc, world)
+    } else {
+        plan_pairs(sc)
+    }
+}
+
+/// The pairs to image (see module docs), in aperture order: the scenario's `[[pairs]]` if given,
+/// else for each aperture the base station with the finest resolution cell at the region's centre
+/// among those whose panel faces it ([`facing_base_stations`]; ties keep the lower index).
 ///
 /// # Errors
 /// [`RunError::NoPairs`] if no base station faces the region.
 pub fn plan_pairs(sc: &ImagingScenario) -> Result<Vec<PairPlan>, RunError> {
     let mut plans = Vec::new();
     if sc.pairs.is_empty() {
-        let (lo, hi) = sc.region();
-        let centre = (lo + hi) * 0.5;
-        for ai in 0..sc.apertures.len() {
-            // The finest cell among the panels that face the region's centre; ties keep the
-            // lower index.
+        for (ai, candidates) in facing_base_stations(sc).into_iter().enumerate() {
             let mut best: Option<(usize, f32)> = None;
-            for bs in 0..sc.base_stations.len() {
-                let a = sc.array(bs);
-                if (centre - a.centre).dot(a.boresight()) <= 0.0 {
-                    continue;
-                }
-                let cell = resolution_cell_m(sc, bs, ai, default_positions(sc, ai), centre);
+            for (bs, cell) in candidates {
                 if best.is_none_or(|(_, c)| cell < c) {
                     best = Some((bs, cell));
                 }
@@ -465,6 +471,58 @@ pub fn plan_pairs(sc: &ImagingScenario) -> Result<Vec<PairPlan>, RunError> {
         return Err(RunError::NoPairs);
     }
     Ok(plans)
+}
+
+/// For each aperture, the base station among those whose panel faces the region's centre
+/// ([`facing_base_stations`]) whose [`survey_pair`] detects the most of the site (ties: the finer
+/// resolution cell, then the lower index); an aperture with one such base station is not
+/// surveyed (`imaging.pairing = "survey"`).
+///
+/// # Errors
+/// [`RunError::NoPairs`] if no base station faces the region; [`RunError`] from the survey.
+pub fn survey_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, RunError> {
+    let mut plans = Vec::new();
+    for (ai, candidates) in facing_base_stations(sc).into_iter().enumerate() {
+        let mut best: Option<(usize, usize, f32)> = None;
+        for &(bs, cell) in &candidates {
+            let seen = if candidates.len() > 1 {
+                survey_pair(sc, world, &pair_plan(sc, bs, ai))?
+            } else {
+                0
+            };
+            if best.is_none_or(|(_, s, c)| seen > s || (seen == s && cell < c)) {
+                best = Some((bs, seen, cell));
+            }
+        }
+        if let Some((bs, _, _)) = best {
+            plans.push(pair_plan(sc, bs, ai));
+        }
+    }
+    if plans.is_empty() {
+        return Err(RunError::NoPairs);
+    }
+    Ok(plans)
+}
+
+/// Per aperture, the base stations whose panel faces the region's centre, each with the pair's
+/// resolution cell there ([`resolution_cell_m`]), in base-station order.
+pub fn facing_base_stations(sc: &ImagingScenario) -> Vec<Vec<(usize, f32)>> {
+    let (lo, hi) = sc.region();
+    let centre = (lo + hi) * 0.5;
+    (0..sc.apertures.len())
+        .map(|ai| {
+            (0..sc.base_stations.len())
+                .filter(|&bs| {
+                    let a = sc.array(bs);
+                    (centre - a.centre).dot(a.boresight()) > 0.0
+                })
+                .map(|bs| {
+                    let cell = resolution_cell_m(sc, bs, ai, default_positions(sc, ai), centre);
+                    (bs, cell)
+                })
+                .collect()
+        })
+        .collect()
 }
 
 /// The theoretical resolution cell of base station `bs` with aperture `ai` sampled at
@@ -890,6 +948,44 @@ mod tests {
         assert!(
             pairs_away.iter().all(|(b, _)| *b != uav_bs),
             "{pairs_away:?}"
+        );
+    }
+
+    /// A survey counts what the pair sees: the UAV with a base station that sees the hall, and
+    /// the same pair with a screen 4 m in front of that panel (outside the region, 40 m tall,
+    /// 30 m wide), which leaves it the bare terrain's clutter and noise to detect.
+    #[test]
+    fn a_survey_counts_the_site_a_pair_sees_and_nothing_behind_a_screen() {
+        let text = include_str!("../../../fixtures/factory.toml");
+        let load = |t: &str| {
+            let mut sc = ImagingScenario::from_toml_str(t).expect("scenario");
+            sc.apply_quick();
+            sc
+        };
+        let sc = load(text);
+        let plan = plan_pairs(&sc)
+            .expect("pairs")
+            .into_iter()
+            .find(|p| sc.apertures[p.aperture].name == "UAV")
+            .expect("UAV pair");
+        let a = sc.array(plan.bs);
+        let c = a.centre + a.boresight() * 4.0;
+        let screened = format!(
+            "{text}\n[[scene.objects]]\nkind = \"box\"\nname = \"screen\"\nmaterial = \"concrete\"\n\
+             center = [{}, {}]\nsize = [1.0, 30.0, 40.0]\nyaw_deg = {}\n",
+            c.x,
+            c.y,
+            a.boresight_az_rad.to_degrees()
+        );
+        let sc_s = load(&screened);
+        assert!(!sc_s.in_region(Vec3::new(c.x, c.y, 10.0)));
+        let seen = survey_pair(&sc, &build_world(&sc).expect("world"), &plan).expect("survey");
+        let blocked =
+            survey_pair(&sc_s, &build_world(&sc_s).expect("world"), &plan).expect("survey");
+        assert!(seen > 20, "the hall: {seen} coarse voxels");
+        assert!(
+            blocked * 10 < seen,
+            "behind the screen {blocked}, in view {seen}"
         );
     }
 
