@@ -19,6 +19,7 @@ pub mod channel_experiment;
 pub mod echo;
 pub mod io;
 pub mod knn;
+pub mod linalg;
 pub mod localize;
 pub mod material;
 pub mod memory;

@@ -53,10 +53,11 @@ pub mod report;
 
 use std::collections::{HashMap, HashSet, VecDeque};
 
-use glam::{DVec3, Vec3};
+use glam::{DMat3, DVec3, Vec3};
 use num_complex::Complex64;
 use rayon::prelude::*;
 
+use crate::linalg::smallest_eigenvector;
 use crate::propagation::{free_space_amplitude, fresnel_reflection};
 use crate::scene::{Scene, SURFACE_EPS_M};
 use crate::C_M_PER_S;
@@ -554,7 +555,7 @@ fn fitted_normal(
             }
         }
     }
-    match smallest_eigenvector(c) {
+    match smallest_eigenvector(DMat3::from_cols_array_2d(&c)) {
         Some(n) => {
             if n.dot(mean_normal) < 0.0 {
                 -n
@@ -564,46 +565,6 @@ fn fitted_normal(
         }
         None => mean_normal,
     }
-}
-
-/// Unit eigenvector of the smallest eigenvalue of the symmetric 3×3 matrix `c` (closed-form
-/// eigenvalues, then the largest cross product of two rows of `c − λ_min·I`); `None` when that
-/// eigenvalue's eigenspace is not one-dimensional (the cross products vanish) or `c` is zero.
-fn smallest_eigenvector(c: [[f64; 3]; 3]) -> Option<DVec3> {
-    let p1 = c[0][1] * c[0][1] + c[0][2] * c[0][2] + c[1][2] * c[1][2];
-    let q = (c[0][0] + c[1][1] + c[2][2]) / 3.0;
-    let lambda = if p1 == 0.0 {
-        c[0][0].min(c[1][1]).min(c[2][2])
-    } else {
-        let p2 = (c[0][0] - q).powi(2) + (c[1][1] - q).powi(2) + (c[2][2] - q).powi(2) + 2.0 * p1;
-        let p = (p2 / 6.0).sqrt();
-        let b = |i: usize, j: usize| (c[i][j] - if i == j { q } else { 0.0 }) / p;
-        let det = b(0, 0) * (b(1, 1) * b(2, 2) - b(1, 2) * b(2, 1))
-            - b(0, 1) * (b(1, 0) * b(2, 2) - b(1, 2) * b(2, 0))
-            + b(0, 2) * (b(1, 0) * b(2, 1) - b(1, 1) * b(2, 0));
-        let phi = (det / 2.0).clamp(-1.0, 1.0).acos() / 3.0;
-        q + 2.0 * p * (phi + 2.0 * std::f64::consts::PI / 3.0).cos()
-    };
-    let row = |i: usize| {
-        DVec3::new(
-            c[i][0] - if i == 0 { lambda } else { 0.0 },
-            c[i][1] - if i == 1 { lambda } else { 0.0 },
-            c[i][2] - if i == 2 { lambda } else { 0.0 },
-        )
-    };
-    let (r0, r1, r2) = (row(0), row(1), row(2));
-    let best = [r0.cross(r1), r0.cross(r2), r1.cross(r2)]
-        .into_iter()
-        .max_by(|a, b| a.length_squared().total_cmp(&b.length_squared()))?;
-    let scale = r0
-        .length_squared()
-        .max(r1.length_squared())
-        .max(r2.length_squared());
-    let len2 = best.length_squared();
-    if len2.is_nan() || len2 <= 1e-24 * scale * scale {
-        return None;
-    }
-    Some(best / len2.sqrt())
 }
 
 /// One node of the candidate trie: a facet sequence (this node and its ancestors) with the
@@ -1354,38 +1315,6 @@ mod tests {
         let f = wall_and_roof_facets(5.0, 0.375);
         let wall = f.iter().find(|f| f.object == 0).unwrap();
         assert!((wall.normal.z.abs() - 5f64.to_radians().sin()).abs() < 1e-6);
-    }
-
-    #[test]
-    fn smallest_eigenvector_of_rotated_diagonal_is_its_axis() {
-        // C = R·diag(l)·Rᵀ with eigenvalues l; the smallest's eigenvector is R's column of it.
-        // Eigen gap ≥ 0.5 and entries ≤ 9: the closed form loses at most ~1e-15·9/0.5 in the
-        // vector, so 1e-12 is a safe bound.
-        for (n, l) in [
-            (DVec3::new(0.3, -0.5, 0.81), [4.0, 9.0, 0.5]),
-            (DVec3::new(1.0, 0.0, 0.0), [2.0, 3.0, 0.0]),
-            (DVec3::new(-0.2, 0.9, 0.1), [1.0, 1.0, 0.0]),
-            (DVec3::new(0.0, 0.0, 1.0), [5.0, 1.0, 0.2]),
-        ] {
-            let n = n.normalize();
-            let b = basis(n);
-            let mut c = [[0.0; 3]; 3];
-            for (k, v) in b.iter().enumerate() {
-                for i in 0..3 {
-                    for j in 0..3 {
-                        c[i][j] += l[k] * v[i] * v[j];
-                    }
-                }
-            }
-            let e = smallest_eigenvector(c).expect("defined");
-            assert!(e.cross(n).length() < 1e-12, "{e} vs {n}");
-        }
-        // Two equal smallest eigenvalues: no unique normal.
-        assert_eq!(
-            smallest_eigenvector([[1.0, 0.0, 0.0], [0.0, 0.0, 0.0], [0.0, 0.0, 0.0]]),
-            None
-        );
-        assert_eq!(smallest_eigenvector([[0.0; 3]; 3]), None);
     }
 
     #[test]

@@ -30,52 +30,9 @@ pub enum Orientation<'a> {
     Propagate,
 }
 
-/// Eigen-decomposition of a symmetric 3×3 matrix by cyclic Jacobi rotations: eigenvalues
-/// ascending and the matching unit eigenvectors.
-pub fn symmetric_eigen3(m: DMat3) -> ([f64; 3], [DVec3; 3]) {
-    let mut a = m.to_cols_array_2d(); // a[col][row]; symmetric, so indexing as a[i][j] is fine
-    let mut v = [[1.0, 0.0, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]]; // columns = eigenvectors
-    for _sweep in 0..32 {
-        let off = a[0][1] * a[0][1] + a[0][2] * a[0][2] + a[1][2] * a[1][2];
-        let scale = a[0][0] * a[0][0] + a[1][1] * a[1][1] + a[2][2] * a[2][2];
-        if off <= 1e-30 * scale.max(1e-300) {
-            break;
-        }
-        for (p, q) in [(0usize, 1usize), (0, 2), (1, 2)] {
-            if a[p][q] == 0.0 {
-                continue;
-            }
-            let theta = (a[q][q] - a[p][p]) / (2.0 * a[p][q]);
-            let t = theta.signum() / (theta.abs() + (theta * theta + 1.0).sqrt());
-            let t = if theta == 0.0 { 1.0 } else { t };
-            let c = 1.0 / (t * t + 1.0).sqrt();
-            let s = t * c;
-            // A ← Jᵀ A J with J the rotation in the (p, q) plane.
-            for col in a.iter_mut() {
-                let akp = col[p];
-                let akq = col[q];
-                col[p] = c * akp - s * akq;
-                col[q] = s * akp + c * akq;
-            }
-            let (ap, aq) = (a[p], a[q]);
-            for k in 0..3 {
-                a[p][k] = c * ap[k] - s * aq[k];
-                a[q][k] = s * ap[k] + c * aq[k];
-            }
-            for row in &mut v {
-                let vp = row[p];
-                let vq = row[q];
-                row[p] = c * vp - s * vq;
-                row[q] = s * vp + c * vq;
-            }
-        }
-    }
-    let mut idx = [0usize, 1, 2];
-    idx.sort_by(|&i, &j| a[i][i].total_cmp(&a[j][j]));
-    let vals = idx.map(|i| a[i][i]);
-    let vecs = idx.map(|i| DVec3::new(v[0][i], v[1][i], v[2][i]).normalize_or_zero());
-    (vals, vecs)
-}
+/// Re-exported for `imaging::centroid`, which still imports it from here; the definition is in
+/// [`crate::linalg`].
+pub use crate::linalg::symmetric_eigen3;
 
 /// Mean and covariance of points (f64).
 pub fn covariance(points: impl Iterator<Item = Vec3> + Clone) -> (DVec3, DMat3) {
@@ -298,18 +255,6 @@ mod tests {
     /// Radius 2 m, centred at (1, 2, 3).
     fn sphere(n: usize) -> Vec<Vec3> {
         fibonacci_sphere(n, Vec3::new(1.0, 2.0, 3.0), 2.0)
-    }
-
-    #[test]
-    fn jacobi_eigen_matches_a_known_decomposition() {
-        // Diagonal (1, 2, 5) rotated: eigenvalues are recovered to f64 round-off (≤ 1e-12).
-        let r = DMat3::from_rotation_z(0.4) * DMat3::from_rotation_x(1.1);
-        let m = r * DMat3::from_diagonal(DVec3::new(5.0, 1.0, 2.0)) * r.transpose();
-        let (vals, vecs) = symmetric_eigen3(m);
-        for (got, want) in vals.iter().zip([1.0, 2.0, 5.0]) {
-            assert!((got - want).abs() < 1e-12, "{vals:?}");
-        }
-        assert!((m * vecs[0] - vecs[0]).length() < 1e-12);
     }
 
     #[test]

@@ -50,9 +50,10 @@ use rayon::prelude::*;
 
 use super::band::Hierarchy;
 use super::iso::{marching_tetrahedra, GridField};
-use super::normals::{covariance, symmetric_eigen3};
+use super::normals::covariance;
 use super::TriMesh;
 use crate::knn::{check_points, GeometryError, PointIndex};
+use crate::linalg::symmetric_eigen3;
 
 /// The smallest depth (1..=10) whose finest cell for `points` (see [`PoissonParams::depth`]) is
 /// at most `cell_m`: e.g. the imaging voxel, so that the grid resolves what the imaging did.
