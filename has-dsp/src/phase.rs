@@ -9,10 +9,11 @@
 //!   (the first omitted terms, θ⁹/9! and θ¹⁰/10! at θ = π/4); with `f32` rounding the
 //!   measured error against `libm` is below [`ROTOR_F32_MAX_ERR`] = 2·10⁻⁶ per component for
 //!   `|t| ≤ 2¹⁶` cycles. It vectorises (no table, no branch), so it is the fast path's phase.
-//! * [`rotor_q15`]: the fixed-point path's rotor, read from a quarter-wave sine table of
-//!   [`QUARTER`] + 1 Q15 entries ([`PHASE_STEPS`] = 4·[`QUARTER`] = 8192 phase steps per cycle)
-//!   built at compile time, so no `sin`/`cos` runs at run time. The phase is rounded to the
-//!   nearest step (error ≤ π/8192 rad) and each entry is rounded to the nearest Q15 LSB; the
+//! * [`rotor_q15`]: the fixed-point path's rotor, read from [`SIN_Q15`], the crate's one
+//!   quarter-wave sine table ([`QUARTER`] + 1 entries, [`PHASE_STEPS`] = 4·[`QUARTER`] = 8192
+//!   phase steps per cycle, also the Q15 FFT's twiddles through [`cos_sin_q15`]) built at compile
+//!   time, so no `sin`/`cos` runs at run time. The phase is rounded to the nearest step (error
+//!   ≤ π/8192 rad), each entry is rounded to the nearest Q15 LSB and ±1 saturates to ±32767; the
 //!   resulting error per component is ≤ 32768·π/8192 + 0.5 ≈ 13.1 LSB, stated as
 //!   [`ROTOR_Q15_MAX_ERR_LSB`] = 14 and checked against `libm` over every step.
 //!
@@ -31,10 +32,19 @@ pub const ROTOR_F32_MAX_ERR: f32 = 2.0e-6;
 /// `e^{j2πt}` for any `t` (phase rounding to 1/8192 cycle plus Q15 rounding of the table).
 pub const ROTOR_Q15_MAX_ERR_LSB: f32 = 14.0;
 
-/// `sin(2π k / PHASE_STEPS)` for `k = 0..=QUARTER`, rounded to Q15 (1.0 saturates to 32767).
-pub static SIN_QUARTER_Q15: [i16; QUARTER + 1] = build_quarter_table();
+/// Stated bound, in Q15 LSB (`1.0 = 32768`), on the error of every entry of [`SIN_Q15`], hence of
+/// both components of [`cos_sin_q15`] at every step, against the exact sine: rounding to nearest
+/// (the measured worst entry is 0.4997 LSB; the Taylor series adds < 10⁻¹¹ LSB).
+pub const SIN_Q15_MAX_ERR_LSB: f64 = 0.5;
 
-/// Compile-time sine by Taylor series in `f64` (x in \[0, π/2\]; 14 terms: error < 10⁻¹⁵).
+/// The quarter-wave sine table: `SIN_Q15[k] = round(2¹⁵·sin(2πk/PHASE_STEPS))` for
+/// `k = 0..=QUARTER`, in Q15 with `1.0 = 32768` (unsigned, so the peak is exact). Error
+/// ≤ [`SIN_Q15_MAX_ERR_LSB`] per entry; 4 KiB. The one sine table of the crate: the back-projection
+/// rotor and the Q15 FFT's twiddles read it through [`cos_sin_q15`].
+pub static SIN_Q15: [u16; QUARTER + 1] = build_quarter_table();
+
+/// Compile-time sine by Taylor series in `f64` (x in \[0, π/2\]; 14 terms, to x²⁷: truncation
+/// < 10⁻²⁴, f64 rounding < 10⁻¹⁵).
 const fn const_sin(x: f64) -> f64 {
     let x2 = x * x;
     let mut term = x;
@@ -49,14 +59,13 @@ const fn const_sin(x: f64) -> f64 {
     sum
 }
 
-const fn build_quarter_table() -> [i16; QUARTER + 1] {
-    let mut t = [0i16; QUARTER + 1];
+const fn build_quarter_table() -> [u16; QUARTER + 1] {
+    let mut t = [0u16; QUARTER + 1];
     let mut k = 0;
     while k <= QUARTER {
         let x = core::f64::consts::FRAC_PI_2 * (k as f64) / (QUARTER as f64);
-        let v = const_sin(x) * 32768.0;
-        // Round half away from zero (v ≥ 0 here); `as` saturates 32768 to 32767.
-        t[k] = (v + 0.5) as i16;
+        // Round half up (v ≥ 0 here); the peak, 32768, fits a u16.
+        t[k] = (const_sin(x) * 32768.0 + 0.5) as u16;
         k += 1;
     }
     t
@@ -89,27 +98,42 @@ pub fn phase_index(t: f32) -> u32 {
     ((f * PHASE_STEPS as f32 + 0.5) as u32) & (PHASE_STEPS - 1)
 }
 
-/// `e^{+j2π k/PHASE_STEPS}` as Q15 `(re, im)` from the quarter-wave table. `k` is taken modulo
-/// [`PHASE_STEPS`]. Branch free (selects only): `cos(k) = sin(k + QUARTER)`.
+/// `(cos, sin)` of `2πk/PHASE_STEPS` in Q15 with `1.0 = 32768` (values in \[−32768, 32768\]),
+/// each within [`SIN_Q15_MAX_ERR_LSB`] of exact; `k` is taken modulo [`PHASE_STEPS`]. Branch free.
 #[inline(always)]
-pub fn rotor_q15_index(k: u32) -> (i16, i16) {
-    (sin_q15(k.wrapping_add(QUARTER as u32)), sin_q15(k))
+pub fn cos_sin_q15(k: u32) -> (i32, i32) {
+    quadrant_cos_sin::<false>(k)
 }
 
-/// `sin(2π k / PHASE_STEPS)` in Q15 by quarter-wave symmetry.
+/// `e^{+j2π k/PHASE_STEPS}` as `i16` Q15 `(re, im)`: [`cos_sin_q15`] with ±1 saturated to ±32767
+/// (so negating a component cannot overflow). `k` is taken modulo [`PHASE_STEPS`]. Branch free.
 #[inline(always)]
-fn sin_q15(k: u32) -> i16 {
-    const Q: u32 = QUARTER as u32;
+pub fn rotor_q15_index(k: u32) -> (i16, i16) {
+    let (c, s) = quadrant_cos_sin::<true>(k);
+    (c as i16, s as i16)
+}
+
+/// `(cos, sin)` of `2πk/PHASE_STEPS` from [`SIN_Q15`] by quadrant symmetry: with
+/// `k = q·QUARTER + r`, `r < QUARTER`, `(cos r, sin r) = (SIN_Q15[QUARTER − r], SIN_Q15[r])` is
+/// rotated by `q` quarter turns (selects only). `SAT` saturates entries of 32768 to 32767.
+#[inline(always)]
+fn quadrant_cos_sin<const SAT: bool>(k: u32) -> (i32, i32) {
+    const Q: usize = QUARTER;
     let k = k & (PHASE_STEPS - 1);
-    let m = k & (2 * Q - 1); // position in the half cycle
-    let idx = if m > Q { 2 * Q - m } else { m };
-    let v = SIN_QUARTER_Q15[(idx as usize).min(QUARTER)];
-    // Table entries are in [0, 32767], so the negation cannot overflow.
-    if k >= 2 * Q {
-        -v
+    let q = k >> QUARTER.trailing_zeros();
+    let r = k as usize & (Q - 1);
+    let (s, c) = (SIN_Q15[r] as i32, SIN_Q15[Q - r] as i32);
+    // The last eight entries, the peak included, round to 32768.
+    let (s, c) = if SAT {
+        (s.min(32767), c.min(32767))
     } else {
-        v
-    }
+        (s, c)
+    };
+    // Quarter turns: q = 0 (c, s), 1 (−s, c), 2 (−c, −s), 3 (s, −c).
+    let (x, y) = if q & 1 == 1 { (s, c) } else { (c, s) };
+    let x = if (q ^ (q >> 1)) & 1 == 1 { -x } else { x };
+    let y = if q >= 2 { -y } else { y };
+    (x, y)
 }
 
 /// `e^{+j2πt}` in Q15 (see the module docs for the error bound).
@@ -159,17 +183,32 @@ mod tests {
     }
 
     #[test]
-    fn quarter_table_entries_are_within_half_an_lsb_of_libm() {
-        for (k, &v) in SIN_QUARTER_Q15.iter().enumerate() {
-            let x = core::f64::consts::FRAC_PI_2 * k as f64 / QUARTER as f64;
-            let want = (libm::sin(x) * 32768.0).min(32767.0);
-            assert!(
-                (v as f64 - want).abs() <= 0.5 + 1e-9,
-                "k = {k}: {v} vs {want}"
-            );
+    fn cos_sin_q15_is_within_the_stated_lsb_of_exact_at_every_step() {
+        let mut worst = 0.0f64;
+        for k in 0..PHASE_STEPS {
+            let (c, s) = cos_sin_q15(k);
+            // The rotor is the same table saturated to i16 (±1 → ±32767).
+            let sat = |v: i32| v.clamp(-32767, 32767) as i16;
+            assert_eq!(rotor_q15_index(k), (sat(c), sat(s)), "k = {k}");
+            let (ec, es) = exact(k as f64 / PHASE_STEPS as f64);
+            worst = worst
+                .max((c as f64 - ec * 32768.0).abs())
+                .max((s as f64 - es * 32768.0).abs());
         }
-        assert_eq!(SIN_QUARTER_Q15[0], 0);
-        assert_eq!(SIN_QUARTER_Q15[QUARTER], 32767);
+        assert!(worst <= SIN_Q15_MAX_ERR_LSB, "worst {worst} LSB");
+        // The doc's measured worst entry, to its four digits.
+        assert!((worst - 0.4997).abs() < 5e-5, "worst {worst} LSB");
+        // The axes are exact, 45° correctly rounded; k wraps.
+        assert_eq!(SIN_Q15[0], 0);
+        assert_eq!(SIN_Q15[QUARTER], 32768);
+        assert_eq!(SIN_Q15[QUARTER / 2], 23170); // 2¹⁵/√2 = 23170.475
+        let q = QUARTER as u32;
+        assert_eq!(cos_sin_q15(0), (32768, 0));
+        assert_eq!(cos_sin_q15(q), (0, 32768));
+        assert_eq!(cos_sin_q15(2 * q), (-32768, 0));
+        assert_eq!(cos_sin_q15(3 * q), (0, -32768));
+        assert_eq!(cos_sin_q15(PHASE_STEPS + 5), cos_sin_q15(5));
+        assert_eq!(rotor_q15_index(2 * q), (-32767, 0));
     }
 
     #[test]
