@@ -30,9 +30,7 @@ pub enum Orientation<'a> {
     Propagate,
 }
 
-/// Re-exported for `imaging::centroid`, which still imports it from here; the definition is in
-/// [`crate::linalg`].
-pub use crate::linalg::symmetric_eigen3;
+use crate::linalg::symmetric_eigen3;
 
 /// Mean and covariance of points (f64).
 pub fn covariance(points: impl Iterator<Item = Vec3> + Clone) -> (DVec3, DMat3) {
