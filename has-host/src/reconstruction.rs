@@ -38,6 +38,22 @@ pub enum ReconstructError {
     /// Scoring the cloud.
     #[error("metrics: {0}")]
     Metrics(GeometryError),
+    /// No fused point survived detection, confirmation and the terrain-echo test: nothing to
+    /// score or mesh.
+    #[error(
+        "imaging: the fused cloud is empty ({pairs} pairs imaged, {detected} points detected, \
+         {unconfirmed} unconfirmed and {terrain} terrain echoes removed)"
+    )]
+    EmptyCloud {
+        /// Pairs imaged.
+        pairs: usize,
+        /// Points the pairs detected, before fusion.
+        detected: usize,
+        /// Fused points removed by the cross-pair confirmation.
+        unconfirmed: usize,
+        /// Fused points removed as terrain echoes.
+        terrain: usize,
+    },
 }
 
 /// Options of [`Prepared::reconstruct`].
@@ -363,6 +379,14 @@ impl Prepared<'_> {
 
         let t2 = Instant::now();
         let fused: &FusedCloud = &result.fused;
+        if fused.points.is_empty() {
+            return Err(ReconstructError::EmptyCloud {
+                pairs: result.plans.len(),
+                detected: result.images.iter().map(|im| im.points.len()).sum(),
+                unconfirmed: fused.unconfirmed,
+                terrain: fused.terrain_echoes,
+            });
+        }
         let n_truth = world.truth.len();
         let cmp =
             CloudComparison::new(&fused.points, &world.truth).map_err(ReconstructError::Metrics)?;

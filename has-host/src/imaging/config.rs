@@ -264,11 +264,12 @@ pub struct ImagingSpec {
     /// echoes ([`super::terrain_echo`]).
     #[serde(default = "default_true")]
     pub terrain_echo_test: bool,
-    /// How each aperture's base station is chosen when `[[pairs]]` is not given (among those
-    /// whose panel faces the region's centre): `"resolution"` (default), the finest resolution
-    /// cell at the region's centre; `"survey"`, the one whose coarse pass detects the most of
-    /// the site (`imaging::survey_pair`) — what the pair sees, from its own data, at the cost of
-    /// one coarse pass (and its frames) per candidate.
+    /// Which pairs are imaged when `[[pairs]]` is not given, among the base stations whose
+    /// panel faces the region's centre: `"every"` (default), every such base station with every
+    /// aperture — each base station receives every terminal's transmission, and each pairing
+    /// sees faces the others miss; `"resolution"`, per aperture the one base station of the
+    /// finest resolution cell at the region's centre; `"survey"`, per aperture the one whose
+    /// coarse pass detects the most of the site (`imaging::survey_pair`).
     #[serde(default)]
     pub pairing: Pairing,
     /// Seed of the scatterer sampling and the noise.
@@ -281,10 +282,13 @@ pub struct ImagingSpec {
 #[serde(rename_all = "snake_case")]
 pub enum Pairing {
     /// The finest resolution cell at the region's centre.
-    #[default]
     Resolution,
     /// The most coarse-pass detections ([`crate::imaging::survey_pair`]).
     Survey,
+    /// Every base station whose panel faces the region: each receives every terminal's
+    /// transmission, so each such pair is imaged ([`crate::imaging::every_facing_pair`]).
+    #[default]
+    Every,
 }
 
 /// How the imaging driver detects surface voxels (see [`ImagingSpec::detection`]).

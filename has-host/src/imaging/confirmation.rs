@@ -9,35 +9,43 @@
 //! 3 m from any building (the ones that dominate √CD) are all single-pair points on open ground
 //! or in free air, and two or more pairs that see their place detected nothing there.
 //!
-//! **The test.** Pair `j` *sees* a fused point `p` when `p` lies in front of its panel
+//! **The test.** Pair `j` *confirms* a fused point `p` when it detected a point within the
+//! support distance of `p` (half the coarsest resolution cell of the pairs,
+//! [`super::run::support_distance_m`]: the surface that gave `p` lies within it). A point that
+//! two pairs kept, or that a pair other than the one that kept it confirms, is a *surface
+//! point*: not one pair's false alarm, never questioned. Only the other points — one pair's
+//! alone — are. Pair `j` *sees* such a point `p` when `p` lies in front of its panel
 //! (`(p − rx)·n̂ > 0`, the array's half-space), and both legs — from the panel's centre and
-//! from the aperture's centre to `p` — reach `p` through the known terrain (its scene) and
-//! through the fused cloud itself: the segment, up to twice the support distance short of `p`,
-//! passes within the support distance of no fused point — each stands for its resolution
-//! cell's patch of surface, so a wall the cloud holds with holes (a pair saw it in part) still
-//! stands between a pair and what lies behind it (the detected surfaces are the only buildings
-//! the operator knows; on a courtyard block, legs through the gaps of the wings' shells made
-//! 877 of the 923 points the test removed look seen, all on the yard's walls). The point's own
-//! single-pair cluster — the voxels the same one pair kept, connected to it — does not count,
-//! since it is what the test questions, and a false-alarm patch wider than the support distance
-//! would otherwise hide itself from every pair. Pair `j`
-//! *confirms* `p` when it detected a point within the support distance of `p` (half the
-//! coarsest resolution cell of the pairs, [`super::run::support_distance_m`]: the surface that
-//! gave `p` lies within it). A pair that sees `p` and does not confirm it *denies* it. A point
-//! is dropped when `denials` or more pairs deny it and none of those that detected it is among
-//! them (pairs that kept the fused voxel never deny it). [`confirmed`] repeats the test on the
-//! points kept until nothing more is dropped: a dropped point no longer blocks a leg.
+//! from the aperture's centre to `p` — reach `p` through the known terrain (its scene) and past
+//! the surface points: the segment, up to twice the support distance short of `p`, passes
+//! within the support distance of none — each stands for its resolution cell's patch of
+//! surface, so a wall the cloud holds with holes (a pair saw it in part) still stands between a
+//! pair and what lies behind it (the detected surfaces are the only buildings the operator
+//! knows; on a courtyard block, legs through the gaps of the wings' shells made 877 of the 923
+//! points an earlier test removed look seen, all on the yard's walls). One pair's points block
+//! no leg: they are what the test questions, a false-alarm patch would otherwise hide itself,
+//! and a vehicle's legs run low over open ground past other pairs' false alarms. A pair that
+//! sees `p` and did not detect it *denies* it; `p` is dropped when `denials` or more pairs deny
+//! it. Since surface points are never dropped and one pair's points block nothing, one pass
+//! decides every point.
 //!
 //! **Why two.** A seeing pair misses a true surface cell often — grazing incidence, its weaker
 //! legs, the detection's own miss rate: on the suite's quick clouds a third to a half of the
 //! points a pair sees (by the legs above) were not confirmed by it. One denial is then weak
 //! evidence; two independent misses of a true cell are several times rarer, while a false alarm
-//! is denied by every pair that sees it. Measured (quick suite, docs/results.md): 5–38 points
-//! removed per site (≤ 0.5 % of a cloud), cloud √CD down by up to 0.4 m, F unchanged or up.
+//! is denied by every pair that sees it.
+//!
+//! **Why a confirmation outweighs any number of denials.** With `n` pairs that see a true
+//! cell, each misses it with probability `1 − q` (a third to a half, above), so a surface
+//! collects about `n·(1 − q)` denials: with every base station imaging every terminal (24 pairs
+//! on the suite's sites) a count of denials alone dropped true surface, and each dropped point
+//! opened legs for more denials — on the factory site, in rounds, the whole cloud. A false
+//! alarm is one pair's: another pair detects within the support distance of it only by its own
+//! false alarm there (at the stated rate, ≤ 10⁻⁴ per cell). One confirmation therefore makes a
+//! false alarm far less likely than a surface, whatever the denials; the denials decide only
+//! between a lone pair's point and a surface nobody else detected.
 //!
 //! Units: metres; points in the world frame.
-
-use std::collections::HashMap;
 
 use glam::Vec3;
 use rayon::prelude::*;
@@ -59,121 +67,87 @@ pub struct PairSight<'a> {
 }
 
 /// The number of pairs that deny each point (module docs). `mask[i]` has bit `k` set when pair
-/// `k` kept point `i` (such pairs never deny it); `voxel_m` is the fused lattice's edge,
-/// `support_m` the confirmation radius and the point's own extent along a leg.
+/// `k` kept point `i` (such pairs never deny it); `voxel_m` is the fused lattice's edge (kept
+/// for the callers' signature), `support_m` the confirmation radius and the point's own extent
+/// along a leg.
 pub fn denials(
     points: &[Vec3],
     mask: &[u64],
     sights: &[PairSight<'_>],
     terrain: &Scene,
-    voxel_m: f32,
+    _voxel_m: f32,
     support_m: f32,
 ) -> Vec<u8> {
-    let key = |p: Vec3| {
-        let q = (p / voxel_m).round();
-        [q.x as i64, q.y as i64, q.z as i64]
-    };
-    // Single-pair clusters: the 26-connected voxels kept by the same one pair. Such a cluster
-    // is what the test questions, so it does not hide its own points (a false-alarm cluster
-    // wider than the support distance would otherwise shield itself from every pair).
-    let index: HashMap<[i64; 3], usize> = points
-        .iter()
-        .enumerate()
-        .map(|(i, &p)| (key(p), i))
+    let r2 = support_m * support_m;
+    let kept_by = |m: u64, k: usize| k >= 64 || (m >> k) & 1 == 1;
+    // A point a second pair kept or confirms is not one pair's false alarm: never denied, and
+    // the only kind of point that stands for a surface between a pair and another point.
+    let surface: Vec<bool> = points
+        .par_iter()
+        .zip(mask)
+        .map(|(&p, &m)| {
+            m.count_ones() > 1
+                || sights.iter().enumerate().any(|(k, s)| {
+                    !kept_by(m, k) && s.detections.is_some_and(|d| d.nearest(p).1 <= r2)
+                })
+        })
         .collect();
-    let single = |i: usize| mask[i].count_ones() == 1;
-    let mut cluster: Vec<usize> = (0..points.len()).collect();
-    fn root(c: &mut [usize], mut i: usize) -> usize {
-        while c[i] != i {
-            c[i] = c[c[i]];
-            i = c[i];
-        }
-        i
-    }
-    for (i, &p) in points.iter().enumerate() {
-        if !single(i) {
-            continue;
-        }
-        let [x, y, z] = key(p);
-        for n in neighbours([x, y, z]) {
-            if let Some(&j) = index.get(&n) {
-                if single(j) && mask[j] == mask[i] {
-                    let (a, b) = (root(&mut cluster, i), root(&mut cluster, j));
-                    cluster[a.max(b)] = a.min(b);
-                }
-            }
-        }
-    }
-    let cluster: Vec<usize> = (0..points.len()).map(|i| root(&mut cluster, i)).collect();
+    let walls: Vec<Vec3> = points
+        .iter()
+        .zip(&surface)
+        .filter(|(_, &s)| s)
+        .map(|(&p, _)| p)
+        .collect();
     // A fused point stands for the surface patch of its resolution cell (the support distance
     // around it), and the cloud samples a surface with gaps: a wall a pair sees only in part
     // still stands between another pair and what lies behind it. So a leg is blocked where it
-    // passes within the support distance of a fused point of another cluster; it is sampled
-    // every half support distance (a point within ~0.97 of it from the line is found), from the
-    // sensor to twice the support distance short of `p` — nearer than that, the leg meets
-    // `p`'s own surface (whose points lie within the support distance of a leg that arrives
-    // at more than 30° to it; a grazing pair's silence says little anyway).
-    let all = match PointIndex::new("points", points) {
-        Ok(ix) => ix,
-        // No finite points: nothing to block, nothing to deny.
-        Err(_) => return vec![0; points.len()],
-    };
+    // passes within the support distance of a surface point; it is sampled every half support
+    // distance (a point within ~0.97 of it from the line is found), from the sensor to twice
+    // the support distance short of `p` — nearer than that, the leg meets `p`'s own surface
+    // (whose points lie within the support distance of a leg that arrives at more than 30° to
+    // it; a grazing pair's silence says little anyway). One pair's points — what the test
+    // questions — block nothing: a false-alarm patch would otherwise hide itself, and on open
+    // ground a vehicle's legs run low past other pairs' false alarms.
+    let walls = PointIndex::new("surface points", &walls).ok();
     let step = 0.5 * support_m;
-    let reaches = |s: Vec3, i: usize| -> bool {
-        let p = points[i];
+    let reaches = |s: Vec3, p: Vec3| -> bool {
         let d = p - s;
         let len = d.length();
         if len.is_nan() || len <= 2.0 * support_m {
             return terrain.visible(s, p);
         }
         let dir = d / len;
-        let own = single(i).then_some(cluster[i]);
         let n = ((len - 2.0 * support_m) / step).floor() as usize;
-        let r2 = support_m * support_m;
-        let blocked = (0..=n).any(|k| {
-            let q = s + dir * (k as f32 * step);
-            match own {
-                // Any fused point blocks: the nearest one decides, no list gathered.
-                None => all.nearest(q).1 <= r2,
-                Some(c) => all
-                    .within(q, support_m)
-                    .iter()
-                    .any(|&(j, _)| !(single(j as usize) && cluster[j as usize] == c)),
-            }
-        });
+        let blocked = walls
+            .as_ref()
+            .is_some_and(|w| (0..=n).any(|k| w.nearest(s + dir * (k as f32 * step)).1 <= r2));
         !blocked && terrain.visible(s, p)
     };
-    let r2 = support_m * support_m;
     (0..points.len())
         .into_par_iter()
         .map(|i| {
             let (p, m) = (points[i], mask[i]);
+            if surface[i] {
+                return 0;
+            }
             let mut n = 0u8;
             for (k, s) in sights.iter().enumerate() {
                 // A pair past the 64 recorded in the mask may have kept the point: it never
                 // denies.
-                if k >= 64 || (m >> k) & 1 == 1 {
+                if kept_by(m, k) || (p - s.rx).dot(s.boresight) <= 0.0 {
                     continue;
                 }
-                if (p - s.rx).dot(s.boresight) <= 0.0 {
-                    continue;
+                if reaches(s.rx, p) && reaches(s.tx, p) {
+                    n = n.saturating_add(1);
                 }
-                let confirmed = s.detections.is_some_and(|d| d.nearest(p).1 <= r2);
-                if confirmed || !reaches(s.rx, i) || !reaches(s.tx, i) {
-                    continue;
-                }
-                n = n.saturating_add(1);
             }
             n
         })
         .collect()
 }
 
-/// Which points survive the confirmation: [`denials`] in rounds, each on the points the
-/// previous rounds kept, until a round drops nothing; a point goes when `need` or more pairs
-/// deny it. A dropped point is a false alarm, not a surface, so it no longer blocks the legs
-/// it crossed: the points behind it are tested again (each round drops at least one point, so
-/// this ends).
+/// Which points survive the confirmation: those that fewer than `need` pairs deny
+/// ([`denials`]; `need` = 0 keeps every point).
 pub fn confirmed(
     points: &[Vec3],
     mask: &[u64],
@@ -183,34 +157,13 @@ pub fn confirmed(
     support_m: f32,
     need: u8,
 ) -> Vec<bool> {
-    let mut alive: Vec<usize> = (0..points.len()).collect();
-    loop {
-        let p: Vec<Vec3> = alive.iter().map(|&i| points[i]).collect();
-        let m: Vec<u64> = alive.iter().map(|&i| mask[i]).collect();
-        let d = denials(&p, &m, sights, terrain, voxel_m, support_m);
-        let before = alive.len();
-        alive = alive
-            .iter()
-            .zip(&d)
-            .filter(|(_, &n)| n < need)
-            .map(|(&i, _)| i)
-            .collect();
-        if alive.len() == before {
-            break;
-        }
+    if need == 0 {
+        return vec![true; points.len()];
     }
-    let mut keep = vec![false; points.len()];
-    for i in alive {
-        keep[i] = true;
-    }
-    keep
-}
-
-/// The voxel keys of `k` and its 26 neighbours.
-fn neighbours(k: [i64; 3]) -> impl Iterator<Item = [i64; 3]> {
-    (-1..=1).flat_map(move |dz| {
-        (-1..=1).flat_map(move |dy| (-1..=1).map(move |dx| [k[0] + dx, k[1] + dy, k[2] + dz]))
-    })
+    denials(points, mask, sights, terrain, voxel_m, support_m)
+        .into_iter()
+        .map(|n| n < need)
+        .collect()
 }
 
 #[cfg(test)]
@@ -289,6 +242,15 @@ mod tests {
     }
 
     #[test]
+    fn a_point_two_pairs_kept_is_never_denied() {
+        let p = Vec3::new(0.0, 0.0, 1.0);
+        let sights = around();
+        // Pairs 0 and 1 kept it; pair 2 sees the place and detected nothing.
+        let d = denials(&[p], &[0b11], &sights, &open_ground(), 0.5, 1.5);
+        assert_eq!(d, vec![0]);
+    }
+
+    #[test]
     fn a_pair_that_detected_something_nearby_confirms_and_a_pair_behind_its_panel_does_not_deny() {
         let p = Vec3::new(0.0, 0.0, 1.0);
         let near = PointIndex::new("near", &[p + Vec3::new(0.0, 0.0, 1.0)]).unwrap();
@@ -317,9 +279,16 @@ mod tests {
                 Some(&far),
             ),
         ];
+        // Pair 1 confirms (1 m away): the point is not pair 0's alone, pair 3's miss
+        // notwithstanding.
         let d = denials(&[p], &[1], &sights, &open_ground(), 0.5, 1.5);
-        // Pair 1 confirms (1 m away), pair 2 cannot see it, pair 3 denies (its point is 5 m off).
-        assert_eq!(d, vec![1]);
+        assert_eq!(d, vec![0]);
+        // Without pair 1's detection: pair 1 denies, pair 2 cannot see it, pair 3 denies (its
+        // point is 5 m off).
+        let mut sights = sights;
+        sights[1].detections = None;
+        let d = denials(&[p], &[1], &sights, &open_ground(), 0.5, 1.5);
+        assert_eq!(d, vec![2]);
     }
 
     #[test]
@@ -339,20 +308,23 @@ mod tests {
     }
 
     #[test]
-    fn a_false_alarm_that_hid_another_from_a_pair_hides_nothing_once_dropped() {
+    fn one_pairs_false_alarm_hides_nothing() {
         // Two of pair 0's false alarms on open ground: q sits on the leg from pair 1's
-        // aperture to p. In the first round q is denied by pairs 1 and 2 and p by pair 2 alone;
-        // without q, pair 1 sees p too.
+        // aperture to p. q is one pair's point, not a surface: pair 1 sees p through it.
         let p = Vec3::new(0.0, 0.0, 1.0);
         let q = Vec3::new(5.0, 0.0, 1.25);
         let sights = around();
-        let once = denials(&[p, q], &[1, 1], &sights, &open_ground(), 0.5, 1.5);
-        assert_eq!(once, vec![1, 2]);
+        let d = denials(&[p, q], &[1, 1], &sights, &open_ground(), 0.5, 1.5);
+        assert_eq!(d, vec![2, 2]);
         let keep = confirmed(&[p, q], &[1, 1], &sights, &open_ground(), 0.5, 1.5, 2);
         assert_eq!(keep, vec![false, false]);
-        // A surface point that three pairs detected stays whatever the rounds do.
+        // p as a surface point (three pairs kept it) stays; q is still denied by pairs 1 and 2
+        // (pair 0, whose legs p would block, kept q).
         let keep = confirmed(&[p, q], &[7, 1], &sights, &open_ground(), 0.5, 1.5, 2);
         assert_eq!(keep, vec![true, false]);
+        // Nothing is dropped when no denial is needed to keep a point.
+        let keep = confirmed(&[p, q], &[1, 1], &sights, &open_ground(), 0.5, 1.5, 0);
+        assert_eq!(keep, vec![true, true]);
     }
 
     #[test]
@@ -365,10 +337,16 @@ mod tests {
                 pts.push(Vec3::new(5.0, y as f32 * 0.5, z as f32 * 0.5));
             }
         }
-        let mut mask = vec![2u64; pts.len()];
+        // The wall was kept by pairs 1 and 2 (pair 2 is not among the sights below).
+        let mut mask = vec![0b110u64; pts.len()];
         mask[0] = 1;
         let sights = around();
         let d = denials(&pts, &mask, &sights[..2], &open_ground(), 0.5, 1.5);
         assert_eq!(d[0], 0, "the wall hides p from pair 1");
+        // The same wall as one pair's points (pair 1 alone) is no surface: it hides nothing.
+        let mut mask = vec![0b10u64; pts.len()];
+        mask[0] = 1;
+        let d = denials(&pts, &mask, &sights[..2], &open_ground(), 0.5, 1.5);
+        assert_eq!(d[0], 1, "one pair's points hide p from pair 1");
     }
 }

@@ -16,10 +16,10 @@ pub use driver::{
     image_pair, survey_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions,
 };
 pub use run::{
-    build_world, check_memory, choose_pairs, every_pairing, facing_base_stations, fuse,
-    memory_estimate, observable_truth, observing_pairs, observing_sensors, plan_pairs,
-    resolution_cell_m, run_imaging, share_pct, support_distance_m, survey_pairs, FusedCloud,
-    RunError, RunResult, Terrain, World,
+    build_world, check_memory, choose_pairs, every_facing_pair, every_pairing,
+    facing_base_stations, fuse, memory_estimate, observable_truth, observing_pairs,
+    observing_sensors, plan_pairs, resolution_cell_m, resolves_the_site, run_imaging, share_pct,
+    support_distance_m, survey_pairs, FusedCloud, RunError, RunResult, Terrain, World,
 };
 pub use sensors::{nyquist_spacing_m, pair_resolution_m, PlanarArray, VirtualAperture};
 pub use surface::{surface, Surface, SurfaceOptions, VisibilityFiltered};

@@ -425,11 +425,37 @@ pub fn default_positions(sc: &ImagingScenario, ai: usize) -> usize {
 /// # Errors
 /// [`RunError::NoPairs`] if no base station faces the region; [`RunError`] from the survey.
 pub fn choose_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, RunError> {
-    if sc.pairs.is_empty() && sc.imaging.pairing == Pairing::Survey {
-        survey_pairs(sc, world)
-    } else {
-        plan_pairs(sc)
+    match sc.imaging.pairing {
+        Pairing::Survey if sc.pairs.is_empty() => survey_pairs(sc, world),
+        Pairing::Every if sc.pairs.is_empty() => every_facing_pair(sc),
+        _ => plan_pairs(sc),
     }
+}
+
+/// Every aperture with every base station whose panel faces the region's centre
+/// ([`facing_base_stations`]) and whose pair resolves the site at least as finely in range and
+/// along the track as the panel does vertically ([`resolves_the_site`]), in aperture then
+/// base-station order (`imaging.pairing = "every"`).
+///
+/// # Errors
+/// [`RunError::NoPairs`] if no such pair exists.
+pub fn every_facing_pair(sc: &ImagingScenario) -> Result<Vec<PairPlan>, RunError> {
+    let plans: Vec<PairPlan> = facing_base_stations(sc)
+        .into_iter()
+        .enumerate()
+        .flat_map(|(ai, candidates)| {
+            candidates
+                .into_iter()
+                .map(move |(bs, _)| (bs, ai))
+                .collect::<Vec<_>>()
+        })
+        .filter(|&(bs, ai)| resolves_the_site(sc, bs, ai))
+        .map(|(bs, ai)| pair_plan(sc, bs, ai))
+        .collect();
+    if plans.is_empty() {
+        return Err(RunError::NoPairs);
+    }
+    Ok(plans)
 }
 
 /// The pairs to image (see module docs), in aperture order: the scenario's `[[pairs]]` if given,
@@ -502,6 +528,26 @@ pub fn survey_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>
         return Err(RunError::NoPairs);
     }
     Ok(plans)
+}
+
+/// Whether base station `bs` with aperture `ai` resolves the region's centre in bistatic range
+/// and along the track (the virtual aperture's cross-range) no more coarsely than the panel
+/// resolves it vertically — the coarsest extent every pair's cell has
+/// ([`super::sensors::pair_resolution_m`]). A pair that fails it sees the site near forward
+/// scatter (the site between the panel and the track: the bistatic range barely changes across
+/// it; measured 7.6–72 m range cells on held-out sites) or along its track's axis: its image
+/// smears every echo across the site, and its cell would set the support distance of every
+/// other pair's points ([`support_distance_m`]).
+pub fn resolves_the_site(sc: &ImagingScenario, bs: usize, ai: usize) -> bool {
+    let (lo, hi) = sc.region();
+    let (r, xv, _xh, xz) = pair_resolution_m(
+        (lo + hi) * 0.5,
+        &sc.array(bs),
+        &sc.aperture(ai, default_positions(sc, ai)),
+        sc.wavelength_m() as f32,
+        (sc.radar.bandwidth_mhz * 1e6) as f32,
+    );
+    r.max(xv) <= xz
 }
 
 /// Per aperture, the base stations whose panel faces the region's centre, each with the pair's
@@ -657,12 +703,9 @@ pub fn fuse(
     out
 }
 
-/// The fused cloud without the points that `imaging.cross_pair_denials` or more pairs which see
-/// their place did not detect ([`super::confirmation::confirmed`]: in rounds, until a round
-/// drops nothing); unchanged when that is 0. Rounds, because a dropped point is a false alarm,
-/// not a surface, and the legs it blocked are tested again without it (the suite's office: a
-/// false cluster 30 m from the buildings stayed because the legs of two of the three pairs that
-/// see it crossed other false points, which the same round dropped).
+/// The fused cloud without the one-pair points that `imaging.cross_pair_denials` or more pairs
+/// which see their place did not detect ([`super::confirmation::confirmed`]: a point that a
+/// second pair kept or confirms is never dropped); unchanged when that is 0.
 pub fn confirm(
     sc: &ImagingScenario,
     world: &World,
@@ -949,6 +992,54 @@ mod tests {
             pairs_away.iter().all(|(b, _)| *b != uav_bs),
             "{pairs_away:?}"
         );
+    }
+
+    /// Every base station that faces the site hears every terminal: each such pair is imaged,
+    /// the finest-cell choice among them, and a panel turned away from the site never.
+    #[test]
+    fn every_base_station_facing_the_site_images_every_terminal_and_none_facing_away() {
+        let site = ImagingScenario::from_toml_str(include_str!(
+            "../../../fixtures/suite/factory_site.toml"
+        ))
+        .expect("scenario");
+        let names = |plans: &[PairPlan]| -> Vec<String> {
+            plans.iter().map(|p| p.name.clone()).collect::<Vec<_>>()
+        };
+        let every = every_facing_pair(&site).expect("pairs");
+        let (lo, hi) = site.region();
+        let centre = (lo + hi) * 0.5;
+        let faces = |sc: &ImagingScenario, bs: usize| {
+            let a = sc.array(bs);
+            (centre - a.centre).dot(a.boresight()) > 0.0
+        };
+        let facing = (0..site.base_stations.len())
+            .filter(|&bs| faces(&site, bs))
+            .count();
+        assert!(facing >= 2, "{facing} base stations face the factory site");
+        assert_eq!(every.len(), facing * site.apertures.len());
+        assert!(every.iter().all(|p| faces(&site, p.bs)));
+        let mut unique = names(&every);
+        unique.sort();
+        unique.dedup();
+        assert_eq!(unique.len(), every.len(), "{unique:?}");
+        for p in plan_pairs(&site).expect("pairs") {
+            assert!(names(&every).contains(&p.name), "{} not imaged", p.name);
+        }
+        // A pair that sees the street row near forward scatter (BS3 with V1: a range cell of
+        // 8.9 m against the panel's 3.7 m vertically) is left out.
+        let street =
+            ImagingScenario::from_toml_str(include_str!("../../../fixtures/suite/street_row.toml"))
+                .expect("scenario");
+        let pairs = names(&every_facing_pair(&street).expect("pairs"));
+        assert!(!pairs.contains(&"BS3-V1".to_string()), "{pairs:?}");
+        assert!(pairs.len() >= 20, "{pairs:?}");
+        // One panel turned away: its pairs go, every other stays.
+        let k = every[0].bs;
+        let mut away = site.clone();
+        away.base_stations[k].boresight_deg += 180.0;
+        let rest = every_facing_pair(&away).expect("pairs");
+        assert_eq!(rest.len(), every.len() - site.apertures.len());
+        assert!(rest.iter().all(|p| p.bs != k));
     }
 
     /// A survey counts what the pair sees: the UAV with a base station that sees the hall, and
