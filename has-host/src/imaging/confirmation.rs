@@ -67,15 +67,13 @@ pub struct PairSight<'a> {
 }
 
 /// The number of pairs that deny each point (module docs). `mask[i]` has bit `k` set when pair
-/// `k` kept point `i` (such pairs never deny it); `voxel_m` is the fused lattice's edge (kept
-/// for the callers' signature), `support_m` the confirmation radius and the point's own extent
-/// along a leg.
+/// `k` kept point `i` (such pairs never deny it); `support_m` is the confirmation radius and
+/// the point's own extent along a leg.
 pub fn denials(
     points: &[Vec3],
     mask: &[u64],
     sights: &[PairSight<'_>],
     terrain: &Scene,
-    _voxel_m: f32,
     support_m: f32,
 ) -> Vec<u8> {
     let r2 = support_m * support_m;
@@ -153,14 +151,13 @@ pub fn confirmed(
     mask: &[u64],
     sights: &[PairSight<'_>],
     terrain: &Scene,
-    voxel_m: f32,
     support_m: f32,
     need: u8,
 ) -> Vec<bool> {
     if need == 0 {
         return vec![true; points.len()];
     }
-    denials(points, mask, sights, terrain, voxel_m, support_m)
+    denials(points, mask, sights, terrain, support_m)
         .into_iter()
         .map(|n| n < need)
         .collect()
@@ -225,7 +222,7 @@ mod tests {
         // pairs 1 and 2 detected nothing near the point.
         let mut mask = vec![0b110u64; pts.len()];
         mask[0] = 1;
-        let d = denials(&pts, &mask, &around(), &open_ground(), 0.5, 1.5);
+        let d = denials(&pts, &mask, &around(), &open_ground(), 1.5);
         assert_eq!(
             d[0], 0,
             "a leg through a gap of a seen wall does not reach the point"
@@ -237,7 +234,7 @@ mod tests {
         let p = Vec3::new(0.0, 0.0, 1.0);
         let sights = around();
         // Pair 0 detected it; pairs 1 and 2 see the place and detected nothing.
-        let d = denials(&[p], &[1], &sights, &open_ground(), 0.5, 1.5);
+        let d = denials(&[p], &[1], &sights, &open_ground(), 1.5);
         assert_eq!(d, vec![2]);
     }
 
@@ -246,7 +243,7 @@ mod tests {
         let p = Vec3::new(0.0, 0.0, 1.0);
         let sights = around();
         // Pairs 0 and 1 kept it; pair 2 sees the place and detected nothing.
-        let d = denials(&[p], &[0b11], &sights, &open_ground(), 0.5, 1.5);
+        let d = denials(&[p], &[0b11], &sights, &open_ground(), 1.5);
         assert_eq!(d, vec![0]);
     }
 
@@ -281,13 +278,13 @@ mod tests {
         ];
         // Pair 1 confirms (1 m away): the point is not pair 0's alone, pair 3's miss
         // notwithstanding.
-        let d = denials(&[p], &[1], &sights, &open_ground(), 0.5, 1.5);
+        let d = denials(&[p], &[1], &sights, &open_ground(), 1.5);
         assert_eq!(d, vec![0]);
         // Without pair 1's detection: pair 1 denies, pair 2 cannot see it, pair 3 denies (its
         // point is 5 m off).
         let mut sights = sights;
         sights[1].detections = None;
-        let d = denials(&[p], &[1], &sights, &open_ground(), 0.5, 1.5);
+        let d = denials(&[p], &[1], &sights, &open_ground(), 1.5);
         assert_eq!(d, vec![2]);
     }
 
@@ -303,7 +300,7 @@ mod tests {
         }
         let mask = vec![1u64; pts.len()];
         let sights = around();
-        let d = denials(&pts, &mask, &sights, &open_ground(), 0.5, 1.5);
+        let d = denials(&pts, &mask, &sights, &open_ground(), 1.5);
         assert!(d.iter().all(|&n| n == 2), "{d:?}");
     }
 
@@ -314,16 +311,16 @@ mod tests {
         let p = Vec3::new(0.0, 0.0, 1.0);
         let q = Vec3::new(5.0, 0.0, 1.25);
         let sights = around();
-        let d = denials(&[p, q], &[1, 1], &sights, &open_ground(), 0.5, 1.5);
+        let d = denials(&[p, q], &[1, 1], &sights, &open_ground(), 1.5);
         assert_eq!(d, vec![2, 2]);
-        let keep = confirmed(&[p, q], &[1, 1], &sights, &open_ground(), 0.5, 1.5, 2);
+        let keep = confirmed(&[p, q], &[1, 1], &sights, &open_ground(), 1.5, 2);
         assert_eq!(keep, vec![false, false]);
         // p as a surface point (three pairs kept it) stays; q is still denied by pairs 1 and 2
         // (pair 0, whose legs p would block, kept q).
-        let keep = confirmed(&[p, q], &[7, 1], &sights, &open_ground(), 0.5, 1.5, 2);
+        let keep = confirmed(&[p, q], &[7, 1], &sights, &open_ground(), 1.5, 2);
         assert_eq!(keep, vec![true, false]);
         // Nothing is dropped when no denial is needed to keep a point.
-        let keep = confirmed(&[p, q], &[1, 1], &sights, &open_ground(), 0.5, 1.5, 0);
+        let keep = confirmed(&[p, q], &[1, 1], &sights, &open_ground(), 1.5, 0);
         assert_eq!(keep, vec![true, true]);
     }
 
@@ -341,12 +338,12 @@ mod tests {
         let mut mask = vec![0b110u64; pts.len()];
         mask[0] = 1;
         let sights = around();
-        let d = denials(&pts, &mask, &sights[..2], &open_ground(), 0.5, 1.5);
+        let d = denials(&pts, &mask, &sights[..2], &open_ground(), 1.5);
         assert_eq!(d[0], 0, "the wall hides p from pair 1");
         // The same wall as one pair's points (pair 1 alone) is no surface: it hides nothing.
         let mut mask = vec![0b10u64; pts.len()];
         mask[0] = 1;
-        let d = denials(&pts, &mask, &sights[..2], &open_ground(), 0.5, 1.5);
+        let d = denials(&pts, &mask, &sights[..2], &open_ground(), 1.5);
         assert_eq!(d[0], 1, "one pair's points hide p from pair 1");
     }
 }

@@ -739,7 +739,6 @@ pub fn confirm(
         &fused.pair_mask,
         &sights,
         &world.terrain.scene,
-        sc.imaging.voxel_m,
         support_distance_m(sc, plans),
         need,
     );
