@@ -420,10 +420,11 @@ pub fn default_positions(sc: &ImagingScenario, ai: usize) -> usize {
 }
 
 /// The pairs to image: the scenario's `[[pairs]]` if given, else by `imaging.pairing` —
-/// [`plan_pairs`] (the finest resolution cell) or [`survey_pairs`] (the most detections).
+/// [`every_facing_pair`] (every facing base station with every aperture), [`plan_pairs`] (per
+/// aperture the finest resolution cell) or [`survey_pairs`] (per aperture the most detections).
 ///
 /// # Errors
-/// [`RunError::NoPairs`] if no base station faces the region; [`RunError`] from the survey.
+/// [`RunError::NoPairs`] if no pair qualifies; [`RunError`] from the survey.
 pub fn choose_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, RunError> {
     match sc.imaging.pairing {
         Pairing::Survey if sc.pairs.is_empty() => survey_pairs(sc, world),
@@ -443,12 +444,7 @@ pub fn every_facing_pair(sc: &ImagingScenario) -> Result<Vec<PairPlan>, RunError
     let plans: Vec<PairPlan> = facing_base_stations(sc)
         .into_iter()
         .enumerate()
-        .flat_map(|(ai, candidates)| {
-            candidates
-                .into_iter()
-                .map(move |(bs, _)| (bs, ai))
-                .collect::<Vec<_>>()
-        })
+        .flat_map(|(ai, candidates)| candidates.into_iter().map(move |(bs, _)| (bs, ai)))
         .filter(|&(bs, ai)| resolves_the_site(sc, bs, ai))
         .map(|(bs, ai)| pair_plan(sc, bs, ai))
         .collect();
