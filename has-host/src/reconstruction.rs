@@ -285,6 +285,9 @@ pub struct MeshReport {
     pub visibility_filter: Option<VisibilityFiltered>,
     /// Points left out of the mesher's input by the facing rule.
     pub facing_away_points: usize,
+    /// Samples added below the walls down to what they stand on
+    /// ([`imaging::wall_columns`]; 0 with the option off or the terrain unknown).
+    pub wall_column_samples: usize,
     /// Density trim fraction, if any (none by default).
     pub trim_median_fraction: Option<f32>,
     /// What weighs the samples.
@@ -512,7 +515,8 @@ fn mesh_stage(
     observable: &[bool],
     opts: &SurfaceOptions,
 ) -> Result<(Surface, Vec<Vec3>, MeshReport), ReconstructError> {
-    let surf = imaging::surface(sc, result, opts).map_err(ReconstructError::Surface)?;
+    let surf = imaging::surface(sc, Some(&world.terrain), result, opts)
+        .map_err(ReconstructError::Surface)?;
     let density = sc.imaging.truth_density_per_m2;
     let samples = surf
         .mesh
@@ -549,6 +553,7 @@ fn mesh_stage(
         min_component_fraction: imaging::surface::MIN_COMPONENT_FRACTION,
         visibility_filter: surf.visibility,
         facing_away_points: surf.facing_away,
+        wall_column_samples: surf.wall_column_samples,
         trim_median_fraction: opts.trim_median,
         sample_weights: "intensity",
         sample_density_per_m2: density,

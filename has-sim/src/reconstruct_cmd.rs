@@ -54,6 +54,10 @@ pub struct ReconstructArgs {
     /// default one (0.837 → 0.868 m), removing real roof points along with the ghosts.
     #[arg(long)]
     pub visibility_filter: bool,
+    /// Do not continue each wall below its lowest detected sample down to the lower roof or the
+    /// known terrain it stands on (`has_host::imaging::wall_columns`).
+    #[arg(long)]
+    pub no_wall_columns: bool,
     /// Skip surface reconstruction.
     #[arg(long)]
     pub no_mesh: bool,
@@ -71,6 +75,7 @@ impl ReconstructArgs {
             mesh_depth: None,
             mesh_trim_median: imaging::surface::DEFAULT_TRIM_MEDIAN,
             visibility_filter: false,
+            no_wall_columns: false,
             no_mesh: false,
         }
     }
@@ -253,6 +258,7 @@ pub fn run(args: ReconstructArgs) -> Result<RunReport> {
             depth: args.mesh_depth,
             trim_median: (args.mesh_trim_median > 0.0).then_some(args.mesh_trim_median),
             visibility_filter: args.visibility_filter,
+            wall_columns: !args.no_wall_columns,
         }),
     };
     execute(&args, |p, progress| p.reconstruct(&opts, progress))

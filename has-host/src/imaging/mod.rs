@@ -10,6 +10,7 @@ pub mod run;
 pub mod sensors;
 pub mod surface;
 pub mod terrain_echo;
+pub mod wall_columns;
 
 pub use config::{Detection, ImagingScenario, Pairing, ScenarioError};
 pub use driver::{

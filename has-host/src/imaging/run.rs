@@ -64,12 +64,18 @@ pub struct Terrain {
     pub scene: Scene,
     /// Model scatterers on the terrain (empty when the scenario names no ground object).
     pub scatterers: ScattererSet,
+    /// Whether the scenario names its ground (`imaging.ground_objects`): without, the terrain's
+    /// height is not known and [`Terrain::below`] answers `None` everywhere.
+    pub known: bool,
 }
 
 impl Terrain {
     /// The terrain's point straight below `p` (the first terrain surface a ray down from `p`
-    /// meets), `None` where there is none.
+    /// meets), `None` where there is none or the terrain is not known.
     pub fn below(&self, p: Vec3) -> Option<Vec3> {
+        if !self.known {
+            return None;
+        }
         self.scene
             .closest_hit(p, Vec3::NEG_Z, 0.0, f32::INFINITY)
             .map(|h| h.point)
@@ -365,6 +371,7 @@ fn terrain_model(
             scene: Scene::new(scene.objects.clone())
                 .map_err(crate::scenario::SceneSpecError::from)?,
             scatterers: empty,
+            known: false,
         });
     }
     let tscene = Scene::new(ground).map_err(crate::scenario::SceneSpecError::from)?;
@@ -377,6 +384,7 @@ fn terrain_model(
     Ok(Terrain {
         scene: tscene,
         scatterers,
+        known: true,
     })
 }
 

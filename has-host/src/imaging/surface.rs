@@ -27,6 +27,9 @@
 //!   smear of a neighbouring echo (a roof's image under a vehicle's poor vertical resolution,
 //!   whose normal then points down at the vehicle and closes a slab over the roof). It stays in
 //!   the cloud; only the surface does not follow it;
+//! - below the lowest sample of each wall, samples down to what the wall stands on — a lower
+//!   roof of the cloud or the known terrain ([`super::wall_columns`], on by default,
+//!   [`SurfaceOptions::wall_columns`]): what no pair saw of a wall whose upper part they did;
 //! - optionally ([`SurfaceOptions::visibility_filter`]) points that a one level coarser first
 //!   surface hides from every pair that observed them are left out
 //!   ([`crate::mesh::visibility_consistent`], margin [`VISIBILITY_MARGIN_VOXELS`]).
@@ -38,7 +41,8 @@ use std::time::Instant;
 use glam::Vec3;
 
 use super::config::ImagingScenario;
-use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult};
+use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult, Terrain};
+use super::wall_columns::wall_columns;
 use crate::knn::GeometryError;
 use crate::mesh::{
     depth_for_cell, estimate_normals, reconstruct, reconstruct_oriented, visibility_consistent,
@@ -74,6 +78,8 @@ pub struct SurfaceOptions {
     /// Leave out the points a coarser first-pass surface hides from every pair that observed
     /// them (module docs).
     pub visibility_filter: bool,
+    /// Continue each wall down to what it stands on (module docs, [`super::wall_columns`]).
+    pub wall_columns: bool,
 }
 
 impl Default for SurfaceOptions {
@@ -82,6 +88,7 @@ impl Default for SurfaceOptions {
             depth: None,
             trim_median: Some(DEFAULT_TRIM_MEDIAN),
             visibility_filter: false,
+            wall_columns: true,
         }
     }
 }
@@ -121,16 +128,20 @@ pub struct Surface {
     /// Points left out because their local surface faces away from an end of every pair that
     /// detected them ([`faces_a_pair`]).
     pub facing_away: usize,
+    /// Samples added below the walls ([`super::wall_columns`]), included in `points`.
+    pub wall_column_samples: usize,
     /// Seconds for the whole stage.
     pub seconds: f64,
 }
 
-/// Meshes an imaging run's fused cloud (module docs).
+/// Meshes an imaging run's fused cloud (module docs). `terrain`: the site's known terrain, the
+/// floor the walls are continued to (`None`: not known, no wall is continued).
 ///
 /// # Errors
 /// A trim fraction outside (0, 1]; as [`reconstruct`] and [`visibility_consistent`].
 pub fn surface(
     sc: &ImagingScenario,
+    terrain: Option<&Terrain>,
     result: &RunResult,
     opts: &SurfaceOptions,
 ) -> Result<Surface, GeometryError> {
@@ -215,13 +226,24 @@ pub fn surface(
             .map(|(x, _)| *x)
             .collect()
     };
-    let (points, normals) = (pick(&points), pick(&normals));
-    let weights: Vec<f32> = weights
+    let (mut points, mut normals) = (pick(&points), pick(&normals));
+    let mut weights: Vec<f32> = weights
         .iter()
         .zip(&facing)
         .filter(|(_, &f)| f)
         .map(|(w, _)| *w)
         .collect();
+    let mut wall_column_samples = 0;
+    if let (true, Some(terrain)) = (opts.wall_columns, terrain) {
+        let region_floor = clip_box.0.z;
+        let cols = wall_columns(&points, &normals, &weights, voxel, support, |p| {
+            terrain.below(p).map(|g| g.z.max(region_floor))
+        });
+        wall_column_samples = cols.points.len();
+        points.extend(cols.points);
+        normals.extend(cols.normals);
+        weights.extend(cols.weights);
+    }
     let rec = reconstruct_oriented(&points, normals, Some(&weights), &params)?;
     Ok(Surface {
         mesh: rec.mesh,
@@ -229,6 +251,7 @@ pub fn surface(
         normals: rec.normals,
         weights,
         facing_away,
+        wall_column_samples,
         depth,
         cell_m: rec.poisson.cell_m,
         clip_box,
@@ -288,10 +311,10 @@ mod tests {
                 trim_median: Some(bad),
                 ..SurfaceOptions::default()
             };
-            let e = surface(&sc, &empty, &opts).unwrap_err();
+            let e = surface(&sc, None, &empty, &opts).unwrap_err();
             assert!(e.to_string().contains("trim_median"), "{e}");
         }
-        let e = surface(&sc, &empty, &SurfaceOptions::default()).unwrap_err();
+        let e = surface(&sc, None, &empty, &SurfaceOptions::default()).unwrap_err();
         assert!(e.to_string().contains("points"), "{e}");
     }
 }
