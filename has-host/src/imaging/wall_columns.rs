@@ -87,15 +87,11 @@ pub fn wall_columns(
     // Nothing of the cloud within `front_m` of the sample's height from one cell to two
     // `front_m` ahead of it.
     let steps = (front_m / cell_m).ceil() as i64;
-    // The sample's own lattice column is not ahead of it (a diagonal step of one cell can stay
-    // in it, where the sample itself would close its own front).
     let open_front = |p: Vec3, n: Vec3| {
         let ahead = Vec3::new(n.x, n.y, 0.0).normalize_or_zero();
-        let own = lattice(p);
         (1..=2 * steps).all(|j| {
             let q = lattice(p + ahead * (j as f32 * cell_m));
-            (q.0, q.1) == (own.0, own.1)
-                || (-steps..=steps).all(|dz| !occupied.contains(&(q.0, q.1, q.2 + dz)))
+            (-steps..=steps).all(|dz| !occupied.contains(&(q.0, q.1, q.2 + dz)))
         })
     };
     // Per lattice column: the lowest wall sample (index) and every sample's height.
@@ -237,24 +233,6 @@ mod tests {
         let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5));
         let zmin = c.points.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
         assert!((zmin - 3.5).abs() < 1e-4, "{zmin}");
-    }
-
-    #[test]
-    fn a_turned_wall_is_continued_like_an_aligned_one() {
-        // A wall at 45° (x + y = 0.1) facing +x+y, every sample 5 cm from its lattice cell's
-        // lower corner: one cell ahead along the normal stays in the sample's own column.
-        let (mut p, mut n) = (Vec::new(), Vec::new());
-        for k in 0..6 {
-            for h in 0..9 {
-                let t = 0.5 * k as f32;
-                p.push(Vec3::new(0.05 + t, 0.05 - t, 6.0 + 0.5 * h as f32));
-                n.push(Vec3::new(1.0, 1.0, 0.0).normalize());
-            }
-        }
-        let w = vec![1.0; p.len()];
-        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5));
-        assert_eq!(c.columns, 6);
-        assert_eq!(c.points.len(), 6 * 11);
     }
 
     #[test]
