@@ -53,8 +53,9 @@ pub struct WallColumns {
     pub columns: usize,
 }
 
-/// The samples that continue each column's lowest wall sample down to the first lower sample of
-/// the column or to the terrain (module docs). `points`, `normals` (unit, oriented) and `weights`
+/// The samples that continue each column's lowest open-fronted wall sample down to the first
+/// lower sample of the column or of a neighbouring one, or to the terrain, in the columns whose
+/// neighbour continues too (module docs). `points`, `normals` (unit, oriented) and `weights`
 /// are the mesher's input, one entry each per sample; `front_m` the depth of the open front a
 /// wall needs; `floor(p)` is the height the column under `p` ends at (the known terrain, not
 /// below the imaging region), `None` where it is not known. Deterministic: columns in lattice
@@ -105,8 +106,8 @@ pub fn wall_columns(
         if !p.is_finite() {
             continue;
         }
-        let key = ((p.x / cell_m).floor() as i64, (p.y / cell_m).floor() as i64);
-        let c = cols.entry(key).or_default();
+        let (x, y, _) = lattice(*p);
+        let c = cols.entry((x, y)).or_default();
         c.heights.push(p.z);
         if n.z.abs() < max_nz && c.wall.is_none_or(|w| p.z < points[w].z) && open_front(*p, *n) {
             c.wall = Some(i);
