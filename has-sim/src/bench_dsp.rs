@@ -1,9 +1,10 @@
 //! `has-sim bench dsp`: prints the has-dsp kernel rates of [`has_host::bench::dsp`], one thread
 //! and all threads, with the accuracy of each back-projection path against the `f64` reference
-//! and its ratio against the plain scalar loop.
+//! and its ratio against the plain scalar loop; `has-sim bench echo`: the echo-synthesis rates of
+//! [`has_host::bench::echo`] against the plain one-path-at-a-time reference.
 
 use anyhow::{Context, Result};
-use has_host::bench::dsp;
+use has_host::bench::{dsp, echo};
 
 /// Runs the DSP benchmark and prints its tables as each is measured.
 pub fn run(quick: bool) -> Result<()> {
@@ -60,5 +61,39 @@ pub fn run(quick: bool) -> Result<()> {
             r.ser_db
         );
     }
+    Ok(())
+}
+
+/// Runs the echo-synthesis benchmark and prints its table.
+pub fn run_echo(quick: bool) -> Result<()> {
+    let budget = dsp::budget(quick);
+    let threads = rayon::current_num_threads();
+    println!("has-sim bench echo — {threads} threads available; rates over ≥ {budget:?} each");
+    let rep = echo::echo_rates(quick, budget).context("echo-synthesis benchmark")?;
+    println!(
+        "Echo synthesis: {} visible scatterers × {} elements, {} bins (scatterer × element pairs per second)",
+        rep.scatterers, rep.elements, rep.bins
+    );
+    let base = rep.rows.last().map(|r| r.one_thread).unwrap_or(f64::NAN);
+    println!(
+        "  {:<30} {:>14} {:>9} {:>14}",
+        "path",
+        "1 thread",
+        "× plain",
+        format!("{threads} threads")
+    );
+    for r in &rep.rows {
+        println!(
+            "  {:<30} {:>14.3e} {:>9.2} {:>14.3e}",
+            r.name,
+            r.one_thread,
+            r.one_thread / base,
+            r.all_threads
+        );
+    }
+    println!(
+        "  largest |fast − plain| / peak: {:.1e}",
+        rep.max_rel_difference
+    );
     Ok(())
 }

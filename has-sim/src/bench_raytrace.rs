@@ -18,6 +18,13 @@ pub enum BenchCmd {
     /// Ray-tracing throughput: BVH build, closest hit and visibility, 1 thread and all threads.
     Raytrace(RaytraceArgs),
     /// Screened Poisson: adaptive fine levels against full grids on the same noisy building.
+    /// Echo synthesis: scatterer × element pairs per second of the fast (blocked) path against the
+    /// plain one-path-at-a-time reference, 1 thread and all threads.
+    Echo {
+        /// Shorter runs on a smaller panel.
+        #[arg(long)]
+        quick: bool,
+    },
     Mesh {
         /// Depth 7 instead of 8.
         #[arg(long)]
@@ -75,6 +82,7 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
     match cmd {
         BenchCmd::Raytrace(a) => raytrace(&a),
         BenchCmd::Dsp { quick } => crate::bench_dsp::run(quick),
+        BenchCmd::Echo { quick } => crate::bench_dsp::run_echo(quick),
         BenchCmd::Mesh { quick } => crate::bench_mesh::run(quick),
     }
 }

@@ -613,3 +613,75 @@ fn a_profile_window_is_the_matching_slice_of_the_full_profile() {
     }
     assert!(a_win[0].norm() > 0.1 && a_win[59].norm() > 0.1);
 }
+
+#[test]
+fn blocked_synthesis_gives_the_bits_of_one_path_at_a_time() {
+    // Elements on both sides of the wall and above the floor: per element, some scatterers face
+    // it and some face away (no path), over many blocks of scatterers.
+    let scene = floor_and_wall();
+    let set = ScattererSet::sample(&scene, 3.0, 5).unwrap();
+    assert!(set.len() > 1000, "{}", set.len());
+    let all: Vec<u32> = (0..set.len() as u32).collect();
+    let (_, mut cfg) = compressor(N, B, 2, Window::Hann);
+    cfg.kernel_half_width_cells = 6;
+    cfg.kernel_oversample = 64;
+    cfg.r0_m = 5.0;
+    cfg.n_bins = 300;
+    let synth = EchoSynth::new(cfg.clone()).unwrap();
+    let tx = Vec3::new(8.0, -3.0, 12.0);
+    let rx: Vec<Vec3> = (0..12)
+        .map(|i| {
+            Vec3::new(
+                if i % 2 == 0 { 6.0 } else { -4.0 },
+                0.7 * i as f32 - 4.0,
+                3.0 + 0.4 * i as f32,
+            )
+        })
+        .collect();
+    let bits = |v: &[Complex32]| -> Vec<u32> {
+        v.iter()
+            .flat_map(|z| [z.re.to_bits(), z.im.to_bits()])
+            .collect()
+    };
+    let mut fast = vec![Complex32::new(0.0, 0.0); rx.len() * cfg.n_bins];
+    let mut plain = fast.clone();
+    synth
+        .synth_profiles(&set, &all, tx, &rx, &mut fast)
+        .unwrap();
+    synth
+        .synth_profiles_reference(&set, &all, tx, &rx, &mut plain)
+        .unwrap();
+    assert!(fast.iter().filter(|z| z.norm() > 0.0).count() > rx.len() * 50);
+    assert_eq!(bits(&fast), bits(&plain));
+
+    // Free points: the blocked path against paths deposited one at a time.
+    let points: Vec<PointScatterer> = set
+        .points
+        .iter()
+        .take(700)
+        .enumerate()
+        .map(|(i, s)| PointScatterer {
+            pos: s.pos,
+            amp: Complex32::new(1.0 + 0.01 * i as f32, -0.5),
+        })
+        .collect();
+    let mut fast = vec![Complex32::new(0.0, 0.0); rx.len() * cfg.n_bins];
+    synth
+        .synth_profiles_points(&points, tx, &rx, &mut fast)
+        .unwrap();
+    for (e, row) in rx.iter().zip(fast.chunks(cfg.n_bins)) {
+        let paths: Vec<(f64, Complex32)> = points
+            .iter()
+            .map(|p| {
+                let pos = p.pos.as_dvec3();
+                (
+                    pos.distance(tx.as_dvec3()) + (e.as_dvec3() - pos).length(),
+                    p.amp,
+                )
+            })
+            .collect();
+        let mut one = vec![Complex32::new(0.0, 0.0); cfg.n_bins];
+        synth.add_paths_to_profile(&paths, &mut one).unwrap();
+        assert_eq!(bits(row), bits(&one));
+    }
+}

@@ -6,7 +6,7 @@
 //! time. Nothing here asserts a time; the rows are to read and compare (the plain scalar loop is
 //! the baseline of the back-projection rows).
 
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 use glam::Vec3;
 use has_dsp::bp::{add_point_echo, ser_db, AccF32, AccQ15, Backprojector, BpConfig, Interp};
@@ -19,25 +19,13 @@ use has_dsp::DspError;
 use num_complex::Complex;
 use rayon::prelude::*;
 
-use super::{pool, BenchError};
+use super::{pool, rate, BenchError};
 
 type C32 = Complex<f32>;
 
 /// The time each rate is measured over: 150 ms for a quick run, 1 s otherwise.
 pub fn budget(quick: bool) -> Duration {
     Duration::from_millis(if quick { 150 } else { 1000 })
-}
-
-/// Runs `f` repeatedly for at least `budget` (after one warm-up call); returns calls per second.
-fn rate(budget: Duration, mut f: impl FnMut()) -> f64 {
-    f(); // warm up caches and lazy tables
-    let start = Instant::now();
-    let mut calls = 0u64;
-    while start.elapsed() < budget {
-        f();
-        calls += 1;
-    }
-    calls as f64 / start.elapsed().as_secs_f64()
 }
 
 /// Deterministic complex white noise with components uniform in ±`amp` (a 64-bit LCG).

@@ -11,11 +11,13 @@
 //! - [`raytrace`]: BVH build, closest-hit and visibility throughput on a deterministic city.
 //! - [`paths`]: paths per second of the channel-prediction tracer.
 //! - [`dsp`]: FFT-1024, range compression and back-projection rates with their SER.
+//! - [`echo`]: echo-synthesis rates, the fast path against the plain one.
 //! - [`mesh`]: screened Poisson with adaptive fine levels against full grids.
 
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 pub mod dsp;
+pub mod echo;
 pub mod mesh;
 pub mod paths;
 pub mod raytrace;
@@ -33,6 +35,9 @@ pub enum BenchError {
     /// The channel-prediction tracer refused its input.
     #[error(transparent)]
     Paths(#[from] crate::paths::PathError),
+    /// Echo synthesis refused its input.
+    #[error(transparent)]
+    Echo(#[from] crate::echo::EchoError),
     /// A has-dsp kernel refused its input.
     #[error(transparent)]
     Dsp(#[from] has_dsp::DspError),
@@ -65,6 +70,18 @@ fn timed<T>(work: impl FnOnce() -> T) -> (T, f64, Option<f64>) {
     let wall = t.elapsed().as_secs_f64();
     let cpu = c0.and_then(|c0| process_cpu_seconds().map(|c1| c1 - c0));
     (out, wall, cpu)
+}
+
+/// Runs `f` repeatedly for at least `budget` (after one warm-up call); returns calls per second.
+fn rate(budget: Duration, mut f: impl FnMut()) -> f64 {
+    f(); // warm up caches and lazy tables
+    let start = Instant::now();
+    let mut calls = 0u64;
+    while start.elapsed() < budget {
+        f();
+        calls += 1;
+    }
+    calls as f64 / start.elapsed().as_secs_f64()
 }
 
 /// A rayon pool of `threads` workers.

@@ -19,7 +19,7 @@ use rand::{Rng, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
-use super::kernel::floor_fast;
+use super::kernel::{floor_fast, floor_small, FLOOR_SMALL_MAX};
 use super::noise::{noise_stream, ComplexGaussian};
 use super::{check_pos, EchoConfig, EchoError, PulseKernel, ScattererSet};
 use crate::propagation::{free_space_amplitude, fresnel_reflection};
@@ -73,16 +73,112 @@ pub fn bistatic_amplitude(
     tx_leg(refl2, cos_i.max(0.0), area_m2, rv, lambda) * rx_leg(cos_s.max(0.0), rr)
 }
 
-/// A scatterer prepared for one transmitter position.
-#[derive(Clone, Copy, Debug)]
-struct Prep {
-    pos: DVec3,
-    /// Front normal (facing the transmitter); unused when `!facing`.
-    n: DVec3,
-    rv: f64,
+/// Scatterers prepared for one transmitter position, as a struct of arrays (the per-element pass
+/// over them vectorises, see [`EchoSynth::profile_row`]).
+#[derive(Clone, Debug, Default)]
+struct Prepared {
+    /// Positions, metres.
+    x: Vec<f64>,
+    y: Vec<f64>,
+    z: Vec<f64>,
+    /// Front normals (facing the transmitter); empty for free points.
+    nx: Vec<f64>,
+    ny: Vec<f64>,
+    nz: Vec<f64>,
+    /// Transmit-leg distances `rV`, metres.
+    rv: Vec<f64>,
     /// Transmit-leg amplitude (surface) or the full amplitude (points).
-    amp: Complex32,
+    amp: Vec<Complex32>,
+    /// Surface scatterers: the receive leg's facing test and `√cos θs / rR` apply; free points:
+    /// the amplitude is used as given.
     facing: bool,
+}
+
+impl Prepared {
+    fn with_capacity(n: usize, facing: bool) -> Self {
+        let v = || Vec::with_capacity(n);
+        let (nx, ny, nz) = if facing {
+            (v(), v(), v())
+        } else {
+            Default::default()
+        };
+        Prepared {
+            x: v(),
+            y: v(),
+            z: v(),
+            nx,
+            ny,
+            nz,
+            rv: v(),
+            amp: Vec::with_capacity(n),
+            facing,
+        }
+    }
+
+    fn push(&mut self, pos: DVec3, n: DVec3, rv: f64, amp: Complex32) {
+        self.x.push(pos.x);
+        self.y.push(pos.y);
+        self.z.push(pos.z);
+        if self.facing {
+            self.nx.push(n.x);
+            self.ny.push(n.y);
+            self.nz.push(n.z);
+        }
+        self.rv.push(rv);
+        self.amp.push(amp);
+    }
+
+    fn len(&self) -> usize {
+        self.x.len()
+    }
+}
+
+/// Scatterers per block of the per-element pass (its scratch lives on the stack).
+const BLOCK: usize = 128;
+
+/// Receive legs of scatterers `lo .. lo + r.len()` at element `e` (`r`, `scale`, `keep` equally
+/// long, at most [`BLOCK`]): the bistatic path `r = rV + rR`, the receive-leg factor
+/// (`√cos θs / rR` for surfaces, 1 for points) and whether the path exists (a surface scatterer
+/// whose front faces away from the element has none). The same IEEE operations in the same order
+/// as [`EchoSynth::for_each_path`], written branch-free over arrays so that it vectorises.
+#[inline(always)]
+fn receive_legs(
+    p: &Prepared,
+    lo: usize,
+    e: DVec3,
+    r: &mut [f64],
+    scale: &mut [f32],
+    keep: &mut [bool],
+) {
+    let n = r.len();
+    let (x, y, z, rv) = (
+        &p.x[lo..lo + n],
+        &p.y[lo..lo + n],
+        &p.z[lo..lo + n],
+        &p.rv[lo..lo + n],
+    );
+    let mut rr = [0f64; BLOCK];
+    let mut dx = [0f64; BLOCK];
+    let mut dy = [0f64; BLOCK];
+    let mut dz = [0f64; BLOCK];
+    for k in 0..n {
+        (dx[k], dy[k], dz[k]) = (e.x - x[k], e.y - y[k], e.z - z[k]);
+        rr[k] = (dx[k] * dx[k] + dy[k] * dy[k] + dz[k] * dz[k]).sqrt();
+        r[k] = rv[k] + rr[k];
+    }
+    if !p.facing {
+        scale[..n].fill(1.0);
+        keep[..n].fill(true);
+        return;
+    }
+    let (nx, ny, nz) = (&p.nx[lo..lo + n], &p.ny[lo..lo + n], &p.nz[lo..lo + n]);
+    for k in 0..n {
+        let cos_s = (nx[k] * dx[k] + ny[k] * dy[k] + nz[k] * dz[k]) / rr[k];
+        // Not `cos_s > 0`: a NaN keeps its path, as in `for_each_path`.
+        keep[k] = cos_s > 0.0 || cos_s.is_nan();
+        let c = if keep[k] { cos_s } else { 0.0 };
+        scale[k] = rx_leg(c, rr[k]) as f32;
+    }
 }
 
 /// Entries of the carrier-phasor table `e^{−j2π i/PHASOR_N}` (linear interpolation between
@@ -161,7 +257,7 @@ impl EchoSynth {
         set: &ScattererSet,
         visible: &[u32],
         tx: Vec3,
-    ) -> Result<Vec<Prep>, EchoError> {
+    ) -> Result<Prepared, EchoError> {
         check_pos("tx", tx)?;
         if let Some((position, &index)) = visible
             .iter()
@@ -181,7 +277,7 @@ impl EchoSynth {
             .map(|m| m.complex_permittivity(self.cfg.fc_hz))
             .collect();
         let txd = tx.as_dvec3();
-        Ok(visible
+        let rows: Vec<(DVec3, DVec3, f64, f64)> = visible
             .par_iter()
             .filter_map(|&i| {
                 let s = &set.points[i as usize];
@@ -194,18 +290,17 @@ impl EchoSynth {
                 let f = fresnel_reflection(eta, cos_i);
                 let refl2 = 0.5 * (f.te.norm_sqr() + f.tm.norm_sqr());
                 let a = tx_leg(refl2, cos_i, s.area_m2 as f64, rv, lambda);
-                Some(Prep {
-                    pos,
-                    n,
-                    rv,
-                    amp: Complex32::new(a as f32, 0.0),
-                    facing: true,
-                })
+                Some((pos, n, rv, a))
             })
-            .collect())
+            .collect();
+        let mut prep = Prepared::with_capacity(rows.len(), true);
+        for (pos, n, rv, a) in rows {
+            prep.push(pos, n, rv, Complex32::new(a as f32, 0.0));
+        }
+        Ok(prep)
     }
 
-    fn prepare_points(&self, points: &[PointScatterer], tx: Vec3) -> Result<Vec<Prep>, EchoError> {
+    fn prepare_points(&self, points: &[PointScatterer], tx: Vec3) -> Result<Prepared, EchoError> {
         check_pos("tx", tx)?;
         if let Some(i) = points
             .iter()
@@ -217,53 +312,108 @@ impl EchoSynth {
             ));
         }
         let txd = tx.as_dvec3();
-        Ok(points
-            .iter()
-            .map(|p| {
-                let pos = p.pos.as_dvec3();
-                Prep {
-                    pos,
-                    n: DVec3::ZERO,
-                    rv: pos.distance(txd),
-                    amp: p.amp,
-                    facing: false,
-                }
-            })
-            .collect())
+        let mut prep = Prepared::with_capacity(points.len(), false);
+        for p in points {
+            let pos = p.pos.as_dvec3();
+            prep.push(pos, DVec3::ZERO, pos.distance(txd), p.amp);
+        }
+        Ok(prep)
     }
 
     /// Calls `f(r, a)` for each contribution at element `rx`: bistatic path `r` (m) and complex
-    /// amplitude `a` (without the propagation phase).
+    /// amplitude `a` (without the propagation phase). One path at a time: the plain form of
+    /// [`receive_legs`], which gives the same bits.
     #[inline]
-    fn for_each_path(prep: &[Prep], rx: DVec3, mut f: impl FnMut(f64, Complex32)) {
-        for p in prep {
-            let d = rx - p.pos;
+    fn for_each_path(p: &Prepared, rx: DVec3, mut f: impl FnMut(f64, Complex32)) {
+        for k in 0..p.len() {
+            let d = rx - DVec3::new(p.x[k], p.y[k], p.z[k]);
             let rr = d.length();
             let amp = if p.facing {
-                let cos_s = p.n.dot(d) / rr;
+                let cos_s = DVec3::new(p.nx[k], p.ny[k], p.nz[k]).dot(d) / rr;
                 if cos_s <= 0.0 {
                     continue;
                 }
-                p.amp * rx_leg(cos_s, rr) as f32
+                p.amp[k] * rx_leg(cos_s, rr) as f32
             } else {
-                p.amp
+                p.amp[k]
             };
-            f(p.rv + rr, amp);
+            f(p.rv[k] + rr, amp);
         }
     }
 
     /// `e^{−j2π r/λ}`: the fractional number of wavelengths in `f64`, then the phasor table.
     #[inline]
     fn carrier_phasor(&self, r: f64) -> Complex32 {
-        let cycles = r * self.cfg.fc_hz / C_M_PER_S;
-        let x = (cycles - floor_fast(cycles)) * PHASOR_N as f64;
-        let i = (x as usize).min(PHASOR_N - 1);
+        let cycles = self.cycles(r);
+        self.phasor_of(cycles, floor_fast(cycles))
+    }
+
+    /// `r/λ`, the number of carrier wavelengths in path `r`.
+    #[inline(always)]
+    fn cycles(&self, r: f64) -> f64 {
+        r * self.cfg.fc_hz / C_M_PER_S
+    }
+
+    /// `e^{−j2π·cycles}` from the table, given `fl = ⌊cycles⌋`.
+    #[inline(always)]
+    fn phasor_of(&self, cycles: f64, fl: f64) -> Complex32 {
+        let x = (cycles - fl) * PHASOR_N as f64;
+        // `x` is in [0, PHASOR_N]: the `i64` conversion is one instruction, `usize` a branchy one.
+        let i = (x as i64 as usize).min(PHASOR_N - 1);
         let t = (x - i as f64) as f32;
         let (a, b) = (self.phasor[i], self.phasor[i + 1]);
         a + (b - a) * t
     }
 
-    fn profiles_from(&self, prep: &[Prep], rx: &[Vec3], out: &mut [Complex32]) {
+    fn profiles_from(&self, prep: &Prepared, rx: &[Vec3], out: &mut [Complex32]) {
+        out.par_chunks_mut(self.cfg.n_bins)
+            .zip(rx.par_iter())
+            .for_each(|(row, &e)| self.profile_row(prep, e.as_dvec3(), row));
+    }
+
+    /// One element's profile (`row`, overwritten): receive legs a block at a time
+    /// ([`receive_legs`], vectorised), then each path's phasor and pulse taps.
+    fn profile_row(&self, prep: &Prepared, e: DVec3, row: &mut [Complex32]) {
+        let inv_dr = 1.0 / self.cfg.bin_spacing_m();
+        let r0 = self.cfg.r0_m;
+        row.fill(Complex32::new(0.0, 0.0));
+        let (mut r, mut scale, mut keep) = ([0f64; BLOCK], [0f32; BLOCK], [false; BLOCK]);
+        // Per path: the fractional bin `u`, the carrier cycles, and their floors (exact below
+        // `FLOOR_SMALL_MAX`, where pass B takes them; `floor_fast` above).
+        let (mut u, mut u_fl) = ([0f64; BLOCK], [0f64; BLOCK]);
+        let (mut cyc, mut cyc_fl) = ([0f64; BLOCK], [0f64; BLOCK]);
+        let mut lo = 0;
+        while lo < prep.len() {
+            let n = BLOCK.min(prep.len() - lo);
+            receive_legs(prep, lo, e, &mut r[..n], &mut scale[..n], &mut keep[..n]);
+            for k in 0..n {
+                u[k] = (r[k] - r0) * inv_dr;
+                u_fl[k] = floor_small(u[k]);
+                cyc[k] = self.cycles(r[k]);
+                cyc_fl[k] = floor_small(cyc[k]);
+            }
+            for k in 0..n {
+                if !keep[k] || !PulseKernel::deposits(u[k]) {
+                    continue;
+                }
+                let a = prep.amp[lo + k] * scale[k];
+                let c = cyc[k];
+                let c_fl = if c.abs() < FLOOR_SMALL_MAX {
+                    cyc_fl[k]
+                } else {
+                    floor_fast(c)
+                };
+                // `|u| ≤ 1e15 < FLOOR_SMALL_MAX`: its floor is exact.
+                self.kernel
+                    .deposit_floored(row, u[k], u_fl[k], a * self.phasor_of(c, c_fl));
+            }
+            lo += n;
+        }
+    }
+
+    /// [`Self::profiles_from`] one path at a time ([`Self::for_each_path`]): the plain reference
+    /// the blocked path is checked and benchmarked against.
+    fn profiles_plain(&self, prep: &Prepared, rx: &[Vec3], out: &mut [Complex32]) {
         let n_bins = self.cfg.n_bins;
         let inv_dr = 1.0 / self.cfg.bin_spacing_m();
         let r0 = self.cfg.r0_m;
@@ -297,6 +447,27 @@ impl EchoSynth {
         check_out(out.len(), rx_elements.len(), self.cfg.n_bins)?;
         let prep = self.prepare_surface(set, visible, tx)?;
         self.profiles_from(&prep, rx_elements, out);
+        Ok(())
+    }
+
+    /// [`Self::synth_profiles`] one path at a time (no blocks, no vectorised pass): the plain
+    /// reference the fast path is tested against (same bits) and benchmarked against
+    /// (`has-sim bench echo`).
+    ///
+    /// # Errors
+    /// As [`Self::synth_profiles`].
+    pub fn synth_profiles_reference(
+        &self,
+        set: &ScattererSet,
+        visible: &[u32],
+        tx: Vec3,
+        rx_elements: &[Vec3],
+        out: &mut [Complex32],
+    ) -> Result<(), EchoError> {
+        check_elements(rx_elements)?;
+        check_out(out.len(), rx_elements.len(), self.cfg.n_bins)?;
+        let prep = self.prepare_surface(set, visible, tx)?;
+        self.profiles_plain(&prep, rx_elements, out);
         Ok(())
     }
 
@@ -352,7 +523,7 @@ impl EchoSynth {
 
     fn ofdm_from(
         &self,
-        prep: &[Prep],
+        prep: &Prepared,
         rx: &[Vec3],
         symbols: &[Complex32],
         noise: Noise,
