@@ -21,6 +21,11 @@ pub fn run_quick(cmd: &str, out: &Path) -> serde_json::Value {
         .status()
         .expect("has-sim runs");
     assert!(status.success(), "has-sim {cmd} --quick failed");
+    read_report(out)
+}
+
+/// The parsed `OUT/report.json` of a finished run.
+pub fn read_report(out: &Path) -> serde_json::Value {
     serde_json::from_slice(&std::fs::read(out.join("report.json")).expect("report.json"))
         .expect("valid JSON")
 }

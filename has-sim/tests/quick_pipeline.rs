@@ -1,0 +1,243 @@
+//! End to end, as a user runs it, with one quick reconstruction of the bundled factory shared by
+//! three stages (each would otherwise rebuild the same twin): `has-sim channel --quick`
+//! reconstructs the quick twin into `DIR/twin` (the same run as `has-sim reconstruct --quick`)
+//! and predicts channels on it; the reconstruction is held to the point-cloud and mesh quality
+//! its preset is documented to reach; `has-sim localize --quick --twin DIR/twin/mesh.obj` runs
+//! both clutter-suppression modes against that twin. Bad input of each command is tested in its
+//! own file (`reconstruct_quick.rs`, `channel_quick.rs`, `localize_quick.rs`).
+
+mod common;
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use std::sync::OnceLock;
+
+/// The output directory of `has-sim channel --quick` on the bundled factory, run once per test
+/// process (its `twin/` is the quick reconstruction), in cargo's scratch directory for
+/// integration tests (emptied first; left for inspection, `cargo clean` removes it).
+fn pipeline() -> &'static Path {
+    static RUN: OnceLock<PathBuf> = OnceLock::new();
+    RUN.get_or_init(|| {
+        let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("quick-pipeline");
+        let _ = std::fs::remove_dir_all(&out);
+        common::run_quick("channel", &out);
+        out
+    })
+}
+
+#[test]
+fn quick_factory_reconstruction_meets_its_documented_bounds() {
+    let out = pipeline().join("twin");
+    let report = common::read_report(&out);
+    let pc = &report["imaging"]["point_cloud"];
+    let sqrt_cd = pc["sqrt_chamfer_m"].as_f64().expect("sqrt_chamfer_m");
+    let f15 = pc["fscore_1_5m"].as_f64().expect("fscore_1_5m");
+    // The quick preset (0.5 m voxels, 8×8 of each 32×32 panel, every 4th aperture position) on
+    // the bundled site (an 80 m × 64 m region around the hall, not a box fitted to it) is held
+    // to issue 13's acceptance for quick runs on any site: √CD at most 1.3 m, F-score(1.5 m) at
+    // least 90 (measured 0.927 m / 93.7 with every facing base station imaging every aperture).
+    assert!(sqrt_cd <= 1.3, "√CD {sqrt_cd} m");
+    assert!(f15 >= 90.0, "F-score(1.5 m) {f15}");
+    assert!(pc["fscore_0_5m"].as_f64().is_some() && pc["fscore_1_0m"].as_f64().is_some());
+    // All 4 panels face the site: each images each of the 6 apertures.
+    assert_eq!(
+        report["imaging"]["pairs"].as_array().map(Vec::len),
+        Some(24)
+    );
+    // Every pairing of the 4 base stations and 6 apertures sees at least what the imaged pairs
+    // see (here the same pairs: 68.5 %).
+    let gt = &report["imaging"]["ground_truth"];
+    let seen = gt["observable_pct"].as_f64().expect("observable_pct");
+    let any = gt["observable_any_pairing_pct"]
+        .as_f64()
+        .expect("observable_any_pairing_pct");
+    assert!(0.0 < seen && seen <= any && any <= 100.0, "{seen} {any}");
+    // The mesh of the quick cloud (imaging::surface: samples weighted by their amplitude, points
+    // facing away from their pairs left out, trimmed below 0.1 × the median support density,
+    // clipped to the imaging region and
+    // to half the coarsest pair resolution cell, components under 2 % of the largest dropped)
+    // must be better than the cloud it came from on both figures (paper §1.3's claim, and issue
+    // 13's), and within the same quick bounds.
+    let mesh = &report["mesh"];
+    let mesh_cd = mesh["sqrt_chamfer_m"]
+        .as_f64()
+        .expect("mesh.sqrt_chamfer_m");
+    let mesh_f = mesh["fscore_1_5m"].as_f64().expect("mesh.fscore_1_5m");
+    assert!(
+        mesh_cd < sqrt_cd,
+        "mesh √CD {mesh_cd} m vs cloud {sqrt_cd} m"
+    );
+    assert!(mesh_f > f15, "mesh F-score(1.5 m) {mesh_f} vs cloud {f15}");
+    assert!(mesh_cd <= 1.3, "mesh √CD {mesh_cd} m");
+    assert!(mesh_f >= 90.0, "mesh F-score(1.5 m) {mesh_f}");
+    assert_eq!(mesh["manifold"].as_bool(), Some(true));
+    written_mesh_passes_the_checks_of_tools_that_weld_on_load(&out.join("mesh.obj"));
+    // A finished run leaves no marker of an unfinished one (has-sim's run_dir).
+    assert!(!out.join("RUNNING").exists());
+    common::assert_outputs(
+        &out,
+        &[
+            "report.md",
+            "fused.ply",
+            "ground_truth.ply",
+            "fused_top.svg",
+            "fused_side.svg",
+            "pair_BS1-UAV.ply",
+            "mesh.obj",
+            "mesh.ply",
+            "mesh_top.svg",
+            "mesh_input.ply",
+        ],
+    );
+}
+
+/// The written OBJ as Open3D sees it: loaded with bit-identical vertices welded (has's reader,
+/// as Open3D's `remove_duplicated_vertices`), it is edge- and vertex-manifold with no degenerate
+/// face (`is_edge_manifold`, `is_vertex_manifold`, `remove_degenerate_triangles` a no-op), and
+/// every vertex has a normal.
+fn written_mesh_passes_the_checks_of_tools_that_weld_on_load(obj: &std::path::Path) {
+    let objects = has_host::io::load_objects(obj, None).expect("mesh.obj loads");
+    assert_eq!(objects.len(), 1);
+    let mut data = has_host::io::PlyData::default();
+    data.append_triangles(&objects[0].triangles);
+    let mesh = has_host::mesh::TriMesh {
+        vertices: data.vertices.clone(),
+        faces: data.faces.clone(),
+    };
+    let top = mesh.topology();
+    assert!(
+        top.manifold && top.nonmanifold_vertices == 0 && top.degenerate_faces == 0,
+        "{top:?}"
+    );
+    let text = std::fs::read_to_string(obj).unwrap();
+    let count = |tag: &str| text.lines().filter(|l| l.starts_with(tag)).count();
+    assert_eq!(count("v "), mesh.vertices.len());
+    assert_eq!(count("vn "), count("v "));
+}
+
+#[test]
+fn quick_channel_prediction_reports_errors_beams_and_plots() {
+    let out = pipeline().to_path_buf();
+    let report = common::read_report(&out);
+    let c = &report["channel"];
+    let ues = &c["ues"];
+    assert_eq!(ues["total"].as_u64(), Some(100));
+    let kept = ues["kept"].as_u64().expect("kept");
+    assert_eq!(kept + ues["dropped"].as_u64().expect("dropped"), 100);
+    // The quick run (100 UEs, order 2) measured 73 kept UEs: every UE in view of the BS keeps its
+    // line of sight (< 110 dB up to ~760 m at 10 GHz), the dropped ones are in the hall's shadow
+    // with no reflected path either (no diffraction). The UE draw and the true scene do not depend
+    // on the twin, so this count is exact.
+    assert_eq!(kept, 73);
+    let p = &c["paths"];
+    assert_eq!(
+        p["true_kept"].as_u64(),
+        Some(142),
+        "true-scene paths are exact"
+    );
+    let fwd = p["matched_true_to_twin"].as_u64().expect("forward pairs");
+    // A true path is paired when the twin has any path for its UE. A spurious twin surface can
+    // shadow a UE completely (no twin path at all); most UEs keep their line of sight.
+    assert!(
+        fwd <= 142 && fwd as f64 >= 0.9 * 142.0,
+        "matched true-to-twin paths {fwd} of 142"
+    );
+    for q in ["p50", "p90", "p95"] {
+        for k in ["delay_ns", "aoa_deg", "aod_deg", "zoa_deg", "zod_deg"] {
+            let v = c[q][k].as_f64().unwrap_or(f64::NAN);
+            assert!(v.is_finite() && v >= 0.0, "channel.{q}.{k} = {v}");
+        }
+    }
+    // Line of sight and the ground bounce (the ground is known to the twin) are identical in both
+    // models unless the twin blocks them, and they are most of the kept paths, so the errors are
+    // mostly 0; the wall reflections of the quick twin (least-squares facet planes) add small
+    // ones. Measured p90 with main's quick twin at 39bb5f6: delay 0.11 ns, AoA 0.14°, AoD 0.01°,
+    // ZoA 0.29°, ZoD 0.08° (0.09 ns, 0.003°, 0.04°, 0.09°, 0.02° with the mesh before its
+    // visibility-consistency pass: the numbers follow the mesh). The bounds are the issue's goal
+    // (1 ns, 1°, 1°, 0.5°, 0.5°), 1.7-100× above the measurement: a twin that loses or misplaces
+    // more than ~10 % of the paths (a blocked line of sight pairs with a reflection tens of ns
+    // and degrees away) fails them.
+    for (k, goal) in [
+        ("delay_ns", 1.0),
+        ("aoa_deg", 1.0),
+        ("aod_deg", 1.0),
+        ("zoa_deg", 0.5),
+        ("zod_deg", 0.5),
+    ] {
+        let v = c["p90"][k].as_f64().unwrap_or(f64::NAN);
+        assert!(v <= goal, "channel.p90.{k} = {v} > {goal}");
+    }
+    // Beam selection measured 98.6 % (72 of 73): the true best beam is set by the line of sight,
+    // which the twin reproduces; a regression that loses lines of sight fails this.
+    let agree = c["beam"]["agreement_pct"].as_f64().expect("agreement_pct");
+    assert!(agree >= 90.0, "beam agreement {agree} %");
+    assert!(c["paths_per_s"]["true"].as_f64().unwrap_or(0.0) > 0.0);
+    let csv = std::fs::read_to_string(out.join("errors.csv")).expect("errors.csv");
+    let rows = csv.lines().count() - 1;
+    assert_eq!(rows as u64, c["count"].as_u64().expect("count"));
+    common::assert_outputs(
+        &out,
+        &[
+            "report.md",
+            "cdf_delay.svg",
+            "cdf_angles.svg",
+            "ue_map.svg",
+            "twin/mesh.obj",
+        ],
+    );
+}
+
+#[test]
+fn quick_localization_meets_its_documented_bounds() {
+    let out = common::out_dir("localize-quick");
+    // The twin the channel run reconstructed, handed over as a user would with `--twin`.
+    let twin = pipeline().join("twin").join("mesh.obj");
+    let status = Command::new(env!("CARGO_BIN_EXE_has-sim"))
+        .args(["localize", "--quick", "--twin"])
+        .arg(&twin)
+        .arg("--out")
+        .arg(&out)
+        .status()
+        .expect("has-sim runs");
+    assert!(status.success(), "has-sim localize --quick --twin failed");
+    let report = common::read_report(&out);
+    let l = &report["localize"];
+    let eca = l["eca"]["sqrt_chamfer_m"].as_f64().expect("eca √CD");
+    let env = l["env"]["sqrt_chamfer_m"].as_f64().expect("env √CD");
+    // Measured on the bundled scenario with the quick twin (deterministic per seed): ECA
+    // 1.446 m, environment prior 1.294 m (4 and 67 false alarms; 1.370 m on the twin of the
+    // former peak-referenced detection). The bounds fail only if the chain gets worse.
+    assert!(eca <= 1.5, "ECA √CD {eca} m");
+    assert!(env <= 1.4, "env √CD {env} m");
+    // With ECA the only false alarms left are noise and target sidelobes: the CFAR holds its
+    // design rate, so they stay below the design expectation cells·pfa·frames (46 for this
+    // preset; a CFAR blind to the correlation of its range bins gave 220).
+    let cube = l["cube_range_beams_doppler"].as_array().expect("cube");
+    let cells: f64 = cube.iter().map(|v| v.as_f64().unwrap()).product();
+    let pfa = l["spec"]["cfar_pfa"].as_f64().expect("pfa");
+    let frames_f = l["frames"].as_array().expect("frames").len() as f64;
+    let fa = l["eca"]["false_alarms"].as_f64().expect("false alarms");
+    assert!(fa <= cells * pfa * frames_f, "{fa} ECA false alarms");
+    assert!(l["improvement_pct"].as_f64().is_some());
+    // Every frame of the quick preset sees the target in both modes.
+    let frames = l["frames"].as_array().expect("frames").len() as u64;
+    assert_eq!(l["eca"]["frames_detected"].as_u64(), Some(frames));
+    assert_eq!(l["env"]["frames_detected"].as_u64(), Some(frames));
+    assert_eq!(l["eca_variants"].as_array().map(Vec::len), Some(4));
+    common::assert_outputs(
+        &out,
+        &[
+            "report.md",
+            "truth.ply",
+            "detections_eca.ply",
+            "detections_env.ply",
+            "detections_top.svg",
+            "detections_eca_top.svg",
+            "detections_env_top.svg",
+            "rd_slow_before.svg",
+            "rd_slow_eca.svg",
+            "rd_slow_env.svg",
+        ],
+    );
+    let _ = std::fs::remove_dir_all(&out);
+}
