@@ -443,9 +443,7 @@ impl EchoSynth {
         rx_elements: &[Vec3],
         out: &mut [Complex32],
     ) -> Result<(), EchoError> {
-        check_elements(rx_elements)?;
-        check_out(out.len(), rx_elements.len(), self.cfg.n_bins)?;
-        let prep = self.prepare_surface(set, visible, tx)?;
+        let prep = self.prepare_profiles(set, visible, tx, rx_elements, out)?;
         self.profiles_from(&prep, rx_elements, out);
         Ok(())
     }
@@ -464,11 +462,23 @@ impl EchoSynth {
         rx_elements: &[Vec3],
         out: &mut [Complex32],
     ) -> Result<(), EchoError> {
-        check_elements(rx_elements)?;
-        check_out(out.len(), rx_elements.len(), self.cfg.n_bins)?;
-        let prep = self.prepare_surface(set, visible, tx)?;
+        let prep = self.prepare_profiles(set, visible, tx, rx_elements, out)?;
         self.profiles_plain(&prep, rx_elements, out);
         Ok(())
+    }
+
+    /// The checks of [`Self::synth_profiles`] and its scatterers prepared for `tx`.
+    fn prepare_profiles(
+        &self,
+        set: &ScattererSet,
+        visible: &[u32],
+        tx: Vec3,
+        rx_elements: &[Vec3],
+        out: &[Complex32],
+    ) -> Result<Prepared, EchoError> {
+        check_elements(rx_elements)?;
+        check_out(out.len(), rx_elements.len(), self.cfg.n_bins)?;
+        self.prepare_surface(set, visible, tx)
     }
 
     /// (a) for free point scatterers (amplitudes as given).
