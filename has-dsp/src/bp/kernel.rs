@@ -14,7 +14,7 @@
 use super::{Backprojector, Interp, PhaseEval, Snapshot, VoxelGrid, CHUNK};
 use crate::fixed::CQ15;
 use crate::float;
-use crate::phase::{floor_f32, phase_index, rotor_f32, rotor_f32_libm, rotor_q15_index};
+use crate::phase::{floor_f32, phase_word, rotor_f32, rotor_f32_libm, rotor_q15_word};
 use num_complex::Complex;
 
 /// Fills grid-local coordinates of voxels `start .. start + px.len()` (all slices equal length).
@@ -345,7 +345,7 @@ fn run_q15_impl<const LINEAR: bool>(
                 // In [0, 32767]: x − fl < 1 exactly, and `as` truncates (unused for nearest).
                 let w = (ws[k] * 32768.0) as i32;
                 (s_re[k], s_im[k]) = interp_q15::<LINEAR>(profile, bins[k] as i32, w);
-                let (re, im) = rotor_q15_index(phase_index(ts[k]));
+                let (re, im) = rotor_q15_word(phase_word(ts[k]));
                 (c_re[k], c_im[k]) = (re as i32, im as i32);
             }
             // Pass B2: exact Q30 product, aligned and accumulated in i64. |s| components

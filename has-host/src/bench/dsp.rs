@@ -259,7 +259,7 @@ pub struct BpRow {
 }
 
 /// Back-projection rates of the `f32` paths (polynomial rotor, libm sincos), the Q15 path
-/// (table rotor, `i64` accumulators) and the plain scalar loop (the baseline, last), each over
+/// (interpolated table rotor, `i64` accumulators) and the plain scalar loop (the baseline, last), each over
 /// `budget` with one thread and with all threads, on a 64 × 64 × 16 grid and a 32 × 32 panel
 /// (quick: 32 × 32 × 8 and 16 × 16).
 pub fn bp_rates(quick: bool, budget: Duration) -> Result<Vec<BpRow>, BenchError> {
@@ -325,7 +325,7 @@ pub fn bp_rates(quick: bool, budget: Duration) -> Result<Vec<BpRow>, BenchError>
         acc.to_image_f32(&mut img)?;
         let ser = ser_db(&img, &case.reference()?)?;
         rows.push(BpRow {
-            name: "Q15 (table rotor, i64 acc)",
+            name: "Q15 (interp. rotor, i64 acc)",
             one_thread: r1 * case.backprojections(),
             all_threads: rn * case.backprojections(),
             ser_db: ser,
@@ -373,7 +373,7 @@ mod tests {
             [
                 "f32 (poly rotor)",
                 "f32 (libm sincos)",
-                "Q15 (table rotor, i64 acc)",
+                "Q15 (interp. rotor, i64 acc)",
                 "plain scalar loop (reference)"
             ]
         );
