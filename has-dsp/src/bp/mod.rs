@@ -26,10 +26,9 @@
 //!   ≤ 2·10⁻⁶, see [`crate::phase`]) or [`PhaseEval::Libm`] (`libm::sincosf`, the exact path).
 //! * Fixed point ([`Backprojector::push_q15`], [`Backprojector::push_snapshot_q15`]) with state
 //!   [`AccQ15`]: Q15 profiles with a block exponent (value = q · 2^exp), Q15 interpolation with
-//!   explicit rounding, rotor interpolated in integers from a compile-time Q15 table (no `sin`/`cos`
-//!   at run time), exact
-//!   Q30 products accumulated in `i64`. Geometry (distances) is `f32`, as an FPU-equipped
-//!   baseband processor computes it.
+//!   explicit rounding, rotor interpolated in integers from a compile-time Q15 table (no
+//!   `sin`/`cos` at run time), exact Q30 products accumulated in `i64`. Geometry (distances) is
+//!   `f32`, as an FPU-equipped baseband processor computes it.
 //! * References: [`Backprojector::push_naive`] (scalar loop: per voxel and profile a bistatic
 //!   range, `sincos`, interpolation, no reuse: the benchmark baseline) and
 //!   [`Backprojector::push_reference_f64`] (all `f64`, for signal-to-error ratios, [`ser_db`]).
