@@ -41,15 +41,15 @@ fn fill_positions(grid: &VoxelGrid, start: usize, px: &mut [f32], py: &mut [f32]
 }
 
 /// Chunk geometry: grid-local coordinates and `r_V` of up to [`CHUNK`] voxels.
-struct Geo {
-    px: [f32; CHUNK],
-    py: [f32; CHUNK],
-    pz: [f32; CHUNK],
-    rv: [f32; CHUNK],
+pub(super) struct Geo {
+    pub(super) px: [f32; CHUNK],
+    pub(super) py: [f32; CHUNK],
+    pub(super) pz: [f32; CHUNK],
+    pub(super) rv: [f32; CHUNK],
 }
 
 impl Geo {
-    fn new() -> Self {
+    pub(super) fn new() -> Self {
         Self {
             px: [0.0; CHUNK],
             py: [0.0; CHUNK],
@@ -60,7 +60,7 @@ impl Geo {
 
     /// Coordinates and `r_V` of voxels `start .. start + n` (`n ≤ CHUNK`).
     #[inline(always)]
-    fn load(&mut self, grid: &VoxelGrid, start: usize, n: usize, tx: glam::Vec3) {
+    pub(super) fn load(&mut self, grid: &VoxelGrid, start: usize, n: usize, tx: glam::Vec3) {
         let (px, py, pz) = (&mut self.px[..n], &mut self.py[..n], &mut self.pz[..n]);
         fill_positions(grid, start, px, py, pz);
         for (((rv, &x), &y), &z) in self.rv[..n].iter_mut().zip(&*px).zip(&*py).zip(&*pz) {

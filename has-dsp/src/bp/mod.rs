@@ -80,8 +80,11 @@
 //! [`crate::phase`]): 92–97 dB SQNR against the `f32` path on the property-test scenes (77–82 dB
 //! with the former nearest-step rotor, ≤ 14 LSB).
 
+pub mod factorised;
 mod kernel;
 mod reference;
+
+use kernel::Geo;
 
 pub use reference::{add_point_echo, ser_db};
 
