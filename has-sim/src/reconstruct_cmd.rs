@@ -40,6 +40,11 @@ pub struct ReconstructArgs {
     /// Synthesize raw OFDM subcarriers and range-compress them with has-dsp (slower).
     #[arg(long)]
     pub raw_ofdm: bool,
+    /// The fine pass's back-projection, replacing the scenario's `imaging.backprojection`:
+    /// `exact` (per element of the thinned panel) or `factorised` (every element, in subarrays;
+    /// error stated in has_dsp::bp::factorised).
+    #[arg(long, value_parser = ["exact", "factorised"])]
+    pub backprojection: Option<String>,
     /// Poisson grid depth of the surface reconstruction (finest cell = 1.2 × largest extent /
     /// 2^depth). Default: a finest cell of half the imaging voxel, whatever the cloud's extent.
     #[arg(long)]
@@ -72,6 +77,7 @@ impl ReconstructArgs {
             quick,
             fixed_point: false,
             raw_ofdm: false,
+            backprojection: None,
             mesh_depth: None,
             mesh_trim_median: imaging::surface::DEFAULT_TRIM_MEDIAN,
             visibility_filter: false,
@@ -98,6 +104,13 @@ fn load(args: &ReconstructArgs) -> Result<(ImagingScenario, String)> {
     let (mut sc, name) = load_scenario(args.scenario.as_deref())?;
     if args.quick {
         sc.apply_quick();
+    }
+    match args.backprojection.as_deref() {
+        Some("factorised") => sc.imaging.backprojection = imaging::Backprojection::Factorised,
+        Some("exact") => sc.imaging.backprojection = imaging::Backprojection::Exact,
+        _ => {}
+    }
+    if args.quick || args.backprojection.is_some() {
         sc.validate()?;
     }
     Ok((sc, name))

@@ -90,7 +90,7 @@ pub struct Factorisation {
 
 /// The part of the beam space a table samples: profile bins `bin0 .. bin0 + bins`, directions
 /// `α = alpha0 + p/(O·S_c)` for `p < n_alpha` and `β = beta0 + q/(O·S_r)` for `q < n_beta`.
-#[derive(Debug, Clone, Copy, PartialEq)]
+#[derive(Debug, Clone, Copy, PartialEq, Default)]
 #[cfg_attr(feature = "defmt", derive(defmt::Format))]
 pub struct BeamWindow {
     /// First profile bin (may be negative or past the profile: such bins are zero).
@@ -533,10 +533,8 @@ impl Factorised {
         })?;
         check_len("beam table", want, table.len())?;
         bp.check_acc_f32(acc)?;
-        let grid = bp.grid();
-        let [nx, ny, nz] = grid.dims;
-        let hi = grid.spacing * Vec3::new((nx - 1) as f32, (ny - 1) as f32, (nz - 1) as f32);
-        let need = self.window_for_box(bp, Vec3::ZERO, hi, first, tx)?;
+        let (lo, hi) = grid_box(bp.grid());
+        let need = self.window_for_box(bp, lo, hi, first, tx)?;
         if !holds(w, &need, self.per_alpha, self.per_beta) {
             return Err(DspError::OutOfRange {
                 what: "window (does not hold the grid)",

@@ -219,6 +219,21 @@ pub struct ImagingSpec {
     /// resolves worst) to that echo's power centroid ([`super::centroid`]).
     #[serde(default = "default_true")]
     pub skirt_centroid: bool,
+    /// How the fine pass back-projects: `"exact"` (default) per element over the
+    /// `element_step`-thinned panel; `"factorised"` over every element of the panel, cut into
+    /// `subarray × subarray` subarrays whose beams are formed once per snapshot
+    /// ([`has_dsp::bp::factorised`], its error stated there and measured by `has-sim bench dsp`).
+    /// The coarse pass stays exact on the thinned panel either way.
+    #[serde(default)]
+    pub backprojection: Backprojection,
+    /// Subarray side (elements) of the factorised back-projection; divides every panel's rows
+    /// and columns.
+    #[serde(default = "default_subarray")]
+    pub subarray: usize,
+    /// Beam samples per subarray beamwidth `O` of the factorised back-projection (direction
+    /// sampling error ≤ π²/(4O²) per term, rms about a third of it).
+    #[serde(default = "default_beam_oversample")]
+    pub beam_oversample: usize,
     /// Use every n-th element of each array in both directions (1: all).
     #[serde(default = "default_one")]
     pub element_step: usize,
@@ -291,6 +306,17 @@ pub enum Pairing {
     Every,
 }
 
+/// How the fine pass back-projects (see [`ImagingSpec::backprojection`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Backprojection {
+    /// Every (thinned) element, exact ranges and phases.
+    #[default]
+    Exact,
+    /// Every element, in subarrays beamformed once per snapshot.
+    Factorised,
+}
+
 /// How the imaging driver detects surface voxels (see [`ImagingSpec::detection`]).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "snake_case")]
@@ -356,6 +382,12 @@ fn default_one_u64() -> u64 {
 }
 fn default_coarse_step() -> usize {
     1
+}
+fn default_subarray() -> usize {
+    8
+}
+fn default_beam_oversample() -> usize {
+    8
 }
 fn default_coarse_threshold_db() -> f32 {
     -20.0
@@ -796,6 +828,30 @@ impl ImagingScenario {
                 return Err(invalid(f, v, "≥ 1"));
             }
         }
+        if im.backprojection == Backprojection::Factorised {
+            if !(1..=4096).contains(&im.beam_oversample) {
+                return Err(invalid(
+                    "imaging.beam_oversample",
+                    im.beam_oversample,
+                    "in 1..=4096",
+                ));
+            }
+            for (i, b) in self.base_stations.iter().enumerate() {
+                if im.subarray == 0
+                    || !b.rows.is_multiple_of(im.subarray)
+                    || !b.cols.is_multiple_of(im.subarray)
+                {
+                    return Err(invalid(
+                        format!(
+                            "imaging.subarray (base_stations[{i}] is {}×{})",
+                            b.rows, b.cols
+                        ),
+                        im.subarray,
+                        "≥ 1 and dividing every panel's rows and cols (factorised)",
+                    ));
+                }
+            }
+        }
         check_positive(
             "imaging.scatterer_density_per_m2",
             im.scatterer_density_per_m2,
@@ -1055,5 +1111,26 @@ mod tests {
         sc.imaging.region_max[0] += 2000.0;
         sc.validate().unwrap();
         sc.check_extent().unwrap();
+    }
+
+    #[test]
+    fn a_factorised_subarray_that_does_not_tile_the_panel_is_refused_by_name() {
+        let mut sc = factory();
+        sc.imaging.backprojection = Backprojection::Factorised;
+        sc.validate().unwrap();
+        sc.imaging.subarray = 5;
+        let e = sc.validate().unwrap_err().to_string();
+        assert!(
+            e.starts_with("imaging.subarray (base_stations[0] is 32×32)"),
+            "{e}"
+        );
+        assert!(e.contains('5'), "{e}");
+        sc.imaging.subarray = 8;
+        sc.imaging.beam_oversample = 0;
+        let e = sc.validate().unwrap_err().to_string();
+        assert!(e.starts_with("imaging.beam_oversample"), "{e}");
+        // Exact back-projection does not read either.
+        sc.imaging.backprojection = Backprojection::Exact;
+        sc.validate().unwrap();
     }
 }

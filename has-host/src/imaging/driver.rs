@@ -42,6 +42,7 @@
 use std::time::Instant;
 
 use glam::Vec3;
+use has_dsp::bp::factorised::{grid_box, BeamWindow, Factorisation, Factorised};
 use has_dsp::bp::{
     AccF32, AccQ15, Backprojector, BpConfig, Interp, PhaseEval, Snapshot, VoxelGrid,
 };
@@ -53,7 +54,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use super::centroid::skirt_to_centroid;
-use super::config::{Detection, ImagingScenario};
+use super::config::{Backprojection, Detection, ImagingScenario};
 use super::detection::{
     alias_is_stronger, alias_window_m, coherence_factor, detected, direct_path_guard_m,
     effective_looks, image_false_alarm_probability, layer_looks_per_voxel, layer_window,
@@ -67,6 +68,9 @@ use crate::scene::Scene;
 
 /// Wavelength of the incoherent pass: phases `2π r/λ` below 10⁻⁶ rad for any path of the scene.
 const INCOHERENT_WAVELENGTH_M: f32 = 1e9;
+
+/// Mixed into a pair's seed for the jittered thinning of its panel and aperture.
+const THIN_SEED: u64 = 0x5A4D_F00D_0000_0000;
 
 /// Seed offset of the terrain model's noise (independent of the data's).
 const MODEL_NOISE_SEED: u64 = 0x0D15_EA5E_0000_7E22;
@@ -86,6 +90,23 @@ pub enum ImagingError {
     /// A scenario value that the driver cannot use.
     #[error("{0}")]
     Scenario(#[from] super::config::ScenarioError),
+    /// The factorised back-projection's beam tables of one snapshot would not fit in memory.
+    #[error(
+        "pair {pair}: the factorised beam tables of one snapshot need {need_gib:.1} GiB, \
+         {have_gib:.1} GiB available: a smaller imaging.beam_oversample or imaging.subarray, or \
+         imaging.backprojection = \"exact\""
+    )]
+    BeamTables {
+        /// The pair.
+        pair: String,
+        /// GiB the tables need.
+        need_gib: f64,
+        /// GiB available.
+        have_gib: f64,
+    },
+    /// An option the chosen back-projection does not support.
+    #[error("{0}")]
+    Unsupported(&'static str),
 }
 
 /// Options of a run that are not part of the scenario.
@@ -222,7 +243,11 @@ pub fn held_frames_bytes(sc: &ImagingScenario, plan: &PairPlan) -> u64 {
         1
     };
     let geo = pair_geometry(sc, plan);
-    let step = im.element_step.max(1);
+    // The factorised fine pass reads every element of the panel.
+    let step = match im.backprojection {
+        Backprojection::Exact => im.element_step.max(1),
+        Backprojection::Factorised => 1,
+    };
     let rx = geo.array.rows.div_ceil(step) as u64 * geo.array.cols.div_ceil(step) as u64;
     let tx = plan.positions.div_ceil(im.position_step.max(1)) as u64;
     rx.saturating_mul(tx)
@@ -467,12 +492,36 @@ fn frame_sources<'a>(
 /// pair's data seed).
 fn thinned_sensors(sc: &ImagingScenario, geo: &PairGeometry, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
     let im = &sc.imaging;
-    let thin_seed = seed ^ 0x5A4D_F00D_0000_0000;
+    let thin_seed = seed ^ THIN_SEED;
     let rx = geo.array.elements_jittered(im.element_step, thin_seed);
     let tx = geo
         .aperture
         .positions_jittered(im.position_step, thin_seed ^ 1);
     (rx, tx)
+}
+
+/// The fine pass's receive elements and, as indices into them, the `element_step`-thinned panel
+/// (jittered, as [`thinned_sensors`]) that the coarse pass reads: with exact back-projection the
+/// fine pass reads the thinned panel itself; with `imaging.backprojection = "factorised"` every
+/// element, row-major (the subarrays need the whole lattice).
+fn receive_elements(
+    sc: &ImagingScenario,
+    geo: &PairGeometry,
+    seed: u64,
+) -> (Vec<Vec3>, Vec<usize>) {
+    let im = &sc.imaging;
+    let (rx, _) = thinned_sensors(sc, geo, seed);
+    match im.backprojection {
+        Backprojection::Exact => {
+            let n = rx.len();
+            (rx, (0..n).collect())
+        }
+        Backprojection::Factorised => (
+            geo.array.elements(1),
+            geo.array
+                .jittered_indices(im.element_step, seed ^ THIN_SEED),
+        ),
+    }
 }
 
 /// Indices of every `step`-th row and column of the `ne` thinned receive elements and of every
@@ -572,12 +621,40 @@ pub fn image_pair(
     let coherence = clutter_ref && im.coherence_test;
     let (mut src, mut model) = frame_sources(sc, world, plan, &geo, opts)?;
     let pulse_error = src.synth.kernel().error_bound();
-    let (rx_fine, tx_fine) = thinned_sensors(sc, &geo, src.seed);
-    // The coarse pass reads every `coarse_step`-th of the fine pass's thinned element rows and
-    // columns and transmit positions, from the same frames: each frame is synthesised once.
+    let factorised = im.backprojection == Backprojection::Factorised;
+    if factorised && opts.fixed_point {
+        return Err(ImagingError::Unsupported(
+            "fixed point: the factorised back-projection has no Q15 path yet; use \
+             imaging.backprojection = \"exact\" with --fixed-point",
+        ));
+    }
+    let (_, tx_fine) = thinned_sensors(sc, &geo, src.seed);
+    let (rx_fine, thinned) = receive_elements(sc, &geo, src.seed);
+    // The coarse pass reads every `coarse_step`-th of the thinned panel's element rows and
+    // columns and of the transmit positions, from the fine pass's frames: each frame is
+    // synthesised once.
     let (nt, ne, nb) = (tx_fine.len(), rx_fine.len(), geo.n_bins);
-    let (rx_c_idx, tx_c_idx) = every_nth(sc, &geo, ne, nt, im.coarse_step);
-    let total = (2 * nt + tx_c_idx.len()) as u64 + if coherence { ne as u64 } else { 0 };
+    let (rx_c_sub, tx_c_idx) = every_nth(sc, &geo, thinned.len(), nt, im.coarse_step);
+    let rx_c_idx: Vec<usize> = rx_c_sub.iter().map(|&i| thinned[i]).collect();
+    // The receive-coherence reference R = Σ_rx |Σ_tx …|² needs each element's own image: exact
+    // back-projection, one element at a time. With the factorised fine pass it is estimated from
+    // the thinned panel, `ne / thinned` × its sum (an unbiased estimate of the whole panel's: its
+    // elements are a jittered draw of one per block). From the subarrays instead (16 of 4 × 4 on
+    // a 16 × 16 panel), a wall's ratio |I|²/R falls by the subarray's width in elements (its beam
+    // gathers that much more of the track's focusing ring): measured, it kept 79 of the exact
+    // pass's 262 points on the block of has-host/tests/factorised_imaging.rs.
+    let coherence_elems: Vec<usize> = if factorised {
+        thinned.clone()
+    } else {
+        (0..ne).collect()
+    };
+    let exact_coherence = coherence;
+    let total = (2 * nt + tx_c_idx.len()) as u64
+        + if exact_coherence {
+            coherence_elems.len() as u64
+        } else {
+            0
+        };
     let mut done = 0u64;
     let mut stats = PairStats {
         frames: nt,
@@ -720,7 +797,7 @@ pub fn image_pair(
                 let n = bp.voxels();
                 bricks.push(Brick {
                     rx_local: rx_fine.iter().map(|&p| grid.local(p)).collect(),
-                    tx_local: if coherence {
+                    tx_local: if exact_coherence {
                         tx_fine.iter().map(|&p| grid.local(p)).collect()
                     } else {
                         Vec::new()
@@ -746,7 +823,22 @@ pub fn image_pair(
     let mut img_i = img_m.clone();
     // With the coherence test, in f32 the receive-coherence pass is the data image itself.
     let mut img_r = vec![0f32; if coherence { offset } else { 0 }];
-    let data_per_frame = !coherence || opts.fixed_point;
+    let data_per_frame = !exact_coherence || opts.fixed_point || factorised;
+    let fz = if factorised {
+        let fact = Factorisation {
+            sub_rows: im.subarray,
+            sub_cols: im.subarray,
+            oversample: im.beam_oversample,
+        };
+        let lattice = geo.array.lattice();
+        Some((
+            Factorised::new(lattice, fact, sc.wavelength_m() as f32)?,
+            Factorised::new(lattice, fact, INCOHERENT_WAVELENGTH_M)?,
+        ))
+    } else {
+        None
+    };
+    let mut table = Vec::new();
     let mut mprof = vec![Complex32::new(0.0, 0.0); if clutter_ref { prof.len() } else { 0 }];
     let mut iprof = mprof.clone();
     {
@@ -772,6 +864,31 @@ pub fn image_pair(
                 excess_power_of(&prof, &mprof, &mut iprof);
             }
             let t = Instant::now();
+            if let Some((fz, fz_inc)) = &fz {
+                let Accs::F32(accs) = &mut accs else {
+                    unreachable!("fixed point is refused with the factorised path")
+                };
+                for (fz, bp_of, profiles, accs) in [
+                    (
+                        fz_inc,
+                        (|b| &b.bp_inc) as fn(&Brick) -> &Backprojector,
+                        &iprof,
+                        &mut accs_i,
+                    ),
+                    (fz, |b| &b.bp, &mprof, &mut accs_m),
+                    (fz, |b| &b.bp, &prof, accs),
+                ] {
+                    if !accs.is_empty() {
+                        push_bricks_factorised(
+                            fz, &bricks, bp_of, accs, tx, profiles, nb, &mut table, &plan.name,
+                        )?;
+                    }
+                }
+                stats.bp_s += t.elapsed().as_secs_f64();
+                done += 1;
+                progress(done, total);
+                continue;
+            }
             push_bricks_f32(&mut accs_i, &bricks, |b| &b.bp_inc, tx, &iprof, geo.n_bins)?;
             push_bricks_f32(&mut accs_m, &bricks, |b| &b.bp, tx, &mprof, geo.n_bins)?;
             match &mut accs {
@@ -811,20 +928,20 @@ pub fn image_pair(
             }
         }
     }
-    if coherence {
+    drop(table);
+    if exact_coherence {
         // The receive-coherence pass: by reciprocity (the bistatic range is symmetric in its two
         // ends) one receive element with every transmit position is a snapshot of has-dsp, and
         // its own image power, summed over the elements, is R(v) = Σ_rx |Σ_tx …|².
-        let mut scratch = vec![Complex32::new(0.0, 0.0); if opts.fixed_point { offset } else { 0 }];
-        let target: &mut [Complex32] = if opts.fixed_point {
-            &mut scratch
-        } else {
-            &mut img
-        };
+        // The data image of a fixed-point or factorised run was made per frame: this pass's
+        // image then goes to scratch.
+        let own_image = opts.fixed_point || factorised;
+        let mut scratch = vec![Complex32::new(0.0, 0.0); if own_image { offset } else { 0 }];
+        let target: &mut [Complex32] = if own_image { &mut scratch } else { &mut img };
         let mut accs = brick_accs_f32(&bricks, target, |b| &b.bp)?;
         let mut pows = brick_slices(&bricks, &mut img_r);
-        for (e, &rx) in rx_fine.iter().enumerate() {
-            let profiles = &frames[e * nt * nb..(e + 1) * nt * nb];
+        for &e in &coherence_elems {
+            let (rx, profiles) = (rx_fine[e], &frames[e * nt * nb..(e + 1) * nt * nb]);
             let t = Instant::now();
             accs.par_iter_mut()
                 .zip(pows.par_iter_mut())
@@ -845,8 +962,12 @@ pub fn image_pair(
             done += 1;
             progress(done, total);
         }
-        if opts.fixed_point {
-            stats.backprojections += (offset * rx_fine.len() * tx_fine.len()) as f64;
+        if coherence_elems.len() < ne {
+            let scale = ne as f32 / coherence_elems.len() as f32;
+            img_r.par_iter_mut().for_each(|r| *r *= scale);
+        }
+        if own_image {
+            stats.backprojections += (offset * coherence_elems.len() * tx_fine.len()) as f64;
         }
     }
     drop(frames);
@@ -1171,6 +1292,68 @@ fn push_bricks_f32(
                 },
             )
         })
+}
+
+/// Pushes one snapshot through the factorised back-projection `fz` into every brick's
+/// accumulator: the beam table is built once, over
+/// the union of the bricks' windows (each computed in its brick's frame, as the push checks
+/// it), its subarrays in parallel, and read by the bricks in parallel. `table` is reused across
+/// snapshots; its size is checked against the memory available first.
+#[allow(clippy::too_many_arguments)]
+fn push_bricks_factorised(
+    fz: &Factorised,
+    bricks: &[Brick],
+    bp_of: fn(&Brick) -> &Backprojector,
+    accs: &mut [AccF32<'_>],
+    tx: Vec3,
+    profiles: &[Complex32],
+    profile_len: usize,
+    table: &mut Vec<Complex32>,
+    pair: &str,
+) -> Result<(), ImagingError> {
+    let first = fz.lattice().first;
+    let mut w: Option<BeamWindow> = None;
+    for b in bricks {
+        let bp = bp_of(b);
+        let g = bp.grid();
+        let (lo, hi) = grid_box(g);
+        let wb = fz.window_for_box(bp, lo, hi, g.local(first), g.local(tx))?;
+        w = Some(w.map_or(wb, |a| fz.union(&a, &wb)));
+    }
+    let Some(w) = w else {
+        return Ok(());
+    };
+    let too_large = has_dsp::DspError::UnsupportedLength {
+        what: "beam table",
+        len: usize::MAX,
+    };
+    let len = fz.table_len(&w).ok_or(too_large)?;
+    let per = fz.subarray_table_len(&w).ok_or(too_large)?;
+    let bytes = len as f64 * std::mem::size_of::<Complex32>() as f64;
+    if bytes > table.capacity() as f64 * 8.0 {
+        if let Some((need_gib, have_gib)) = crate::memory::shortfall(bytes) {
+            return Err(ImagingError::BeamTables {
+                pair: pair.to_string(),
+                need_gib,
+                have_gib,
+            });
+        }
+    }
+    table.clear();
+    table.resize(len, Complex32::new(0.0, 0.0));
+    table.par_chunks_mut(per).enumerate().try_for_each_init(
+        || vec![Complex32::new(0.0, 0.0); fz.scratch_len(&w)],
+        |scratch, (k, part)| fz.build_part(&w, profiles, profile_len, k, part, scratch),
+    )?;
+    let table = &table[..];
+    accs.par_iter_mut()
+        .zip(bricks.par_iter())
+        .try_for_each(|(acc, b)| {
+            let bp = bp_of(b);
+            let g = bp.grid();
+            fz.push(bp, acc, &w, table, g.local(first), g.local(tx))
+        })?;
+    Ok(())
 }
 
 /// `out[i] = |p[i]|² − |m[i]|²` (as a real-valued complex profile, for the incoherent pass): the

@@ -12,7 +12,7 @@ pub mod surface;
 pub mod terrain_echo;
 pub mod wall_columns;
 
-pub use config::{Detection, ImagingScenario, Pairing, ScenarioError};
+pub use config::{Backprojection, Detection, ImagingScenario, Pairing, ScenarioError};
 pub use driver::{
     image_pair, survey_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions,
 };

@@ -140,9 +140,18 @@ impl PlanarArray {
     /// sidelobe floor of about `1/N` in power. `step = 1` gives every element, as
     /// [`PlanarArray::elements`].
     pub fn elements_jittered(&self, step: usize, seed: u64) -> Vec<Vec3> {
+        self.jittered_indices(step, seed)
+            .into_iter()
+            .map(|i| self.element(i / self.cols, i % self.cols))
+            .collect()
+    }
+
+    /// The element indices (`row·cols + col`) of [`PlanarArray::elements_jittered`], in its
+    /// order: the thinned panel as a subset of the whole one.
+    pub fn jittered_indices(&self, step: usize, seed: u64) -> Vec<usize> {
         let step = step.max(1);
         if step == 1 {
-            return self.elements(1);
+            return (0..self.rows * self.cols).collect();
         }
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
         let mut out = Vec::with_capacity((self.rows / step + 1) * (self.cols / step + 1));
@@ -150,10 +159,23 @@ impl PlanarArray {
             for c0 in (0..self.cols).step_by(step) {
                 let r = r0 + rng.random_range(0..step.min(self.rows - r0));
                 let c = c0 + rng.random_range(0..step.min(self.cols - c0));
-                out.push(self.element(r, c));
+                out.push(r * self.cols + c);
             }
         }
         out
+    }
+
+    /// The panel as a has-dsp lattice ([`has_dsp::bp::factorised::Lattice`]), world frame:
+    /// element `(row, col)` at `first + col·col_step + row·row_step`, as [`PlanarArray::element`].
+    pub fn lattice(&self) -> has_dsp::bp::factorised::Lattice {
+        let (dx, dz) = self.spacing_m();
+        has_dsp::bp::factorised::Lattice {
+            first: self.element(0, 0),
+            col_step: self.tangent() * dx,
+            row_step: Vec3::Z * dz,
+            rows: self.rows,
+            cols: self.cols,
+        }
     }
 }
 
