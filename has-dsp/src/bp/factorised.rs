@@ -541,6 +541,11 @@ impl Factorised {
                 value: need.bins as f32,
             });
         }
+        #[cfg(all(feature = "std", target_arch = "x86_64"))]
+        if avx2::run(self, bp, acc.first, acc.data, w, table, first, tx) {
+            acc.pushes += (self.lattice.rows * self.lattice.cols) as u64;
+            return Ok(());
+        }
         run(self, bp, acc.first, acc.data, w, table, first, tx);
         acc.pushes += (self.lattice.rows * self.lattice.cols) as u64;
         Ok(())
@@ -562,6 +567,7 @@ fn holds(a: &BeamWindow, b: &BeamWindow, per_alpha: f32, per_beta: f32) -> bool 
 /// Bilinear + linear reads of the beam table, per chunk of voxels and subarray. Indexed loops over
 /// the chunk's struct of arrays, as in [`super::kernel`]: they vectorise.
 #[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
+#[inline(always)]
 fn run(
     f: &Factorised,
     bp: &Backprojector,
@@ -640,6 +646,50 @@ fn run(
         for ((z, &re), &im) in acc.iter_mut().zip(&a_re[..n]).zip(&a_im[..n]) {
             *z = Complex::new(re, im);
         }
+    }
+}
+
+/// [`run`] compiled for AVX2, entered only after the CPU was found to have it (as
+/// [`super::kernel`]'s: the same IEEE operations in the same order, so the same bits).
+#[cfg(all(feature = "std", target_arch = "x86_64"))]
+#[allow(unsafe_code)]
+mod avx2 {
+    use super::{BeamWindow, Complex, Factorised, Vec3};
+    use crate::bp::Backprojector;
+
+    /// [`super::run`] in the AVX2 build; `false` (nothing done) if the CPU lacks AVX2.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn run(
+        f: &Factorised,
+        bp: &Backprojector,
+        first_voxel: usize,
+        acc: &mut [Complex<f32>],
+        w: &BeamWindow,
+        table: &[Complex<f32>],
+        first: Vec3,
+        tx: Vec3,
+    ) -> bool {
+        if !crate::bp::kernel::avx2::available() {
+            return false;
+        }
+        // SAFETY: `run_avx2` needs AVX2 and nothing else; the CPU has it (checked above).
+        unsafe { run_avx2(f, bp, first_voxel, acc, w, table, first, tx) };
+        true
+    }
+
+    #[target_feature(enable = "avx2")]
+    #[allow(clippy::too_many_arguments)]
+    fn run_avx2(
+        f: &Factorised,
+        bp: &Backprojector,
+        first_voxel: usize,
+        acc: &mut [Complex<f32>],
+        w: &BeamWindow,
+        table: &[Complex<f32>],
+        first: Vec3,
+        tx: Vec3,
+    ) {
+        super::run(f, bp, first_voxel, acc, w, table, first, tx)
     }
 }
 
@@ -957,6 +1007,41 @@ mod tests {
             .iter()
             .zip(&parts)
             .all(|(x, y)| x.re.to_bits() == y.re.to_bits() && x.im.to_bits() == y.im.to_bits()));
+    }
+
+    #[cfg(all(feature = "std", target_arch = "x86_64"))]
+    #[test]
+    fn the_avx2_build_gives_the_baseline_build_bit_for_bit() {
+        if !crate::bp::kernel::avx2::available() {
+            return;
+        }
+        let (bp, l) = setup(20.0);
+        let f = Factorised::new(
+            l,
+            Factorisation {
+                sub_rows: 8,
+                sub_cols: 4,
+                oversample: 4,
+            },
+            LAMBDA,
+        )
+        .unwrap();
+        let tx = txs()[1];
+        let p = profiles(&l, tx);
+        let (lo, hi) = grid_box(bp.grid());
+        let w = f.window_for_box(&bp, lo, hi, l.first, tx).unwrap();
+        let mut table = vec![Complex::default(); f.table_len(&w).unwrap()];
+        let mut scratch = vec![Complex::default(); f.scratch_len(&w)];
+        f.build(&w, &p, BINS, &mut table, &mut scratch).unwrap();
+        let n = bp.voxels();
+        let (mut a, mut b) = (vec![Complex::default(); n], vec![Complex::default(); n]);
+        run(&f, &bp, 0, &mut a, &w, &table, l.first, tx);
+        assert!(avx2::run(&f, &bp, 0, &mut b, &w, &table, l.first, tx));
+        assert!(a
+            .iter()
+            .zip(&b)
+            .all(|(x, y)| x.re.to_bits() == y.re.to_bits() && x.im.to_bits() == y.im.to_bits()));
+        assert!(a.iter().any(|z| z.norm() > 0.0));
     }
 
     #[test]
