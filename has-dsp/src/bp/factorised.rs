@@ -336,6 +336,14 @@ impl Factorised {
             .checked_mul(w.n_beta)
     }
 
+    /// [`Self::table_len`] as a `Result` naming the table.
+    fn checked_table_len(&self, w: &BeamWindow) -> Result<usize, DspError> {
+        self.table_len(w).ok_or(DspError::UnsupportedLength {
+            what: "beam table",
+            len: usize::MAX,
+        })
+    }
+
     /// Length of one subarray's part of the table of window `w` (`None` on overflow).
     pub fn subarray_table_len(&self, w: &BeamWindow) -> Option<usize> {
         w.bins.checked_mul(w.n_alpha)?.checked_mul(w.n_beta)
@@ -385,10 +393,7 @@ impl Factorised {
         table: &mut [Complex<f32>],
         scratch: &mut [Complex<f32>],
     ) -> Result<(), DspError> {
-        let want = self.table_len(w).ok_or(DspError::UnsupportedLength {
-            what: "beam table",
-            len: usize::MAX,
-        })?;
+        let want = self.checked_table_len(w)?;
         check_len("beam table", want, table.len())?;
         self.build_part(w, profiles, profile_len, 0, table, scratch)
     }
@@ -527,10 +532,7 @@ impl Factorised {
             });
         }
         self.check_window(w)?;
-        let want = self.table_len(w).ok_or(DspError::UnsupportedLength {
-            what: "beam table",
-            len: usize::MAX,
-        })?;
+        let want = self.checked_table_len(w)?;
         check_len("beam table", want, table.len())?;
         bp.check_acc_f32(acc)?;
         let (lo, hi) = grid_box(bp.grid());
@@ -541,12 +543,21 @@ impl Factorised {
                 value: need.bins as f32,
             });
         }
+        let job = Job {
+            f: self,
+            bp,
+            w,
+            table,
+            first,
+            tx,
+        };
         #[cfg(all(feature = "std", target_arch = "x86_64"))]
-        if avx2::run(self, bp, acc.first, acc.data, w, table, first, tx) {
-            acc.pushes += (self.lattice.rows * self.lattice.cols) as u64;
-            return Ok(());
+        let done = avx2::run(&job, acc.first, acc.data);
+        #[cfg(not(all(feature = "std", target_arch = "x86_64")))]
+        let done = false;
+        if !done {
+            run(&job, acc.first, acc.data);
         }
-        run(self, bp, acc.first, acc.data, w, table, first, tx);
         acc.pushes += (self.lattice.rows * self.lattice.cols) as u64;
         Ok(())
     }
@@ -564,20 +575,30 @@ fn holds(a: &BeamWindow, b: &BeamWindow, per_alpha: f32, per_beta: f32) -> bool 
         && axis(a.beta0, a.n_beta, b.beta0, b.n_beta, per_beta)
 }
 
-/// Bilinear + linear reads of the beam table, per chunk of voxels and subarray. Indexed loops over
-/// the chunk's struct of arrays, as in [`super::kernel`]: they vectorise.
-#[allow(clippy::too_many_arguments, clippy::needless_range_loop)]
-#[inline(always)]
-fn run(
-    f: &Factorised,
-    bp: &Backprojector,
-    first_voxel: usize,
-    acc: &mut [Complex<f32>],
-    w: &BeamWindow,
-    table: &[Complex<f32>],
+/// One validated push: the factorisation, the tile's back-projector, the table and its window,
+/// the lattice's element (0, 0) and the transmitter (grid-local).
+struct Job<'a> {
+    f: &'a Factorised,
+    bp: &'a Backprojector,
+    w: &'a BeamWindow,
+    table: &'a [Complex<f32>],
     first: Vec3,
     tx: Vec3,
-) {
+}
+
+/// Bilinear + linear reads of the beam table, per chunk of voxels and subarray. Indexed loops over
+/// the chunk's struct of arrays, as in [`super::kernel`]: they vectorise.
+#[allow(clippy::needless_range_loop)]
+#[inline(always)]
+fn run(job: &Job<'_>, first_voxel: usize, acc: &mut [Complex<f32>]) {
+    let Job {
+        f,
+        bp,
+        w,
+        table,
+        first,
+        tx,
+    } = *job;
     let cfg = bp.config();
     let (r0, inv_dr) = (cfg.r0_m + w.bin0 as f32 * cfg.dr_m, bp.inv_dr);
     let (ua, ub) = (
@@ -654,42 +675,21 @@ fn run(
 #[cfg(all(feature = "std", target_arch = "x86_64"))]
 #[allow(unsafe_code)]
 mod avx2 {
-    use super::{BeamWindow, Complex, Factorised, Vec3};
-    use crate::bp::Backprojector;
+    use super::{Complex, Job};
 
     /// [`super::run`] in the AVX2 build; `false` (nothing done) if the CPU lacks AVX2.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn run(
-        f: &Factorised,
-        bp: &Backprojector,
-        first_voxel: usize,
-        acc: &mut [Complex<f32>],
-        w: &BeamWindow,
-        table: &[Complex<f32>],
-        first: Vec3,
-        tx: Vec3,
-    ) -> bool {
+    pub(super) fn run(job: &Job<'_>, first_voxel: usize, acc: &mut [Complex<f32>]) -> bool {
         if !crate::bp::kernel::avx2::available() {
             return false;
         }
         // SAFETY: `run_avx2` needs AVX2 and nothing else; the CPU has it (checked above).
-        unsafe { run_avx2(f, bp, first_voxel, acc, w, table, first, tx) };
+        unsafe { run_avx2(job, first_voxel, acc) };
         true
     }
 
     #[target_feature(enable = "avx2")]
-    #[allow(clippy::too_many_arguments)]
-    fn run_avx2(
-        f: &Factorised,
-        bp: &Backprojector,
-        first_voxel: usize,
-        acc: &mut [Complex<f32>],
-        w: &BeamWindow,
-        table: &[Complex<f32>],
-        first: Vec3,
-        tx: Vec3,
-    ) {
-        super::run(f, bp, first_voxel, acc, w, table, first, tx)
+    fn run_avx2(job: &Job<'_>, first_voxel: usize, acc: &mut [Complex<f32>]) {
+        super::run(job, first_voxel, acc)
     }
 }
 
@@ -966,26 +966,59 @@ mod tests {
         assert!(s2 < s4 && s4 < s8, "{s2} {s4} {s8}");
     }
 
-    #[test]
-    fn a_table_built_in_parts_has_the_bits_of_one_build() {
+    /// An 8 × 4, O = 4 factorisation of the 20 m panel and the table of transmit position `k`.
+    struct Built {
+        bp: Backprojector,
+        l: Lattice,
+        f: Factorised,
+        tx: Vec3,
+        p: Vec<Complex<f32>>,
+        w: BeamWindow,
+        table: Vec<Complex<f32>>,
+    }
+
+    fn built(k: usize) -> Built {
         let (bp, l) = setup(20.0);
-        let f = Factorised::new(
-            l,
-            Factorisation {
-                sub_rows: 8,
-                sub_cols: 4,
-                oversample: 4,
-            },
-            LAMBDA,
-        )
-        .unwrap();
-        let tx = txs()[2];
+        let fact = Factorisation {
+            sub_rows: 8,
+            sub_cols: 4,
+            oversample: 4,
+        };
+        let f = Factorised::new(l, fact, LAMBDA).unwrap();
+        let tx = txs()[k];
         let p = profiles(&l, tx);
         let (lo, hi) = grid_box(bp.grid());
         let w = f.window_for_box(&bp, lo, hi, l.first, tx).unwrap();
+        let mut table = vec![Complex::default(); f.table_len(&w).unwrap()];
         let mut scratch = vec![Complex::default(); f.scratch_len(&w)];
-        let mut whole = vec![Complex::default(); f.table_len(&w).unwrap()];
-        f.build(&w, &p, BINS, &mut whole, &mut scratch).unwrap();
+        f.build(&w, &p, BINS, &mut table, &mut scratch).unwrap();
+        Built {
+            bp,
+            l,
+            f,
+            tx,
+            p,
+            w,
+            table,
+        }
+    }
+
+    fn same_bits(a: &[Complex<f32>], b: &[Complex<f32>]) -> bool {
+        a.iter()
+            .zip(b)
+            .all(|(x, y)| x.re.to_bits() == y.re.to_bits() && x.im.to_bits() == y.im.to_bits())
+    }
+
+    #[test]
+    fn a_table_built_in_parts_has_the_bits_of_one_build() {
+        let Built {
+            f,
+            p,
+            w,
+            table: whole,
+            ..
+        } = built(2);
+        let mut scratch = vec![Complex::default(); f.scratch_len(&w)];
         let per = f.subarray_table_len(&w).unwrap();
         let mut parts = vec![Complex::new(9.0f32, 9.0); whole.len()];
         // Uneven parts: 3 subarrays, then 1, then the rest.
@@ -1003,10 +1036,7 @@ mod tests {
                 ..
             }
         ));
-        assert!(whole
-            .iter()
-            .zip(&parts)
-            .all(|(x, y)| x.re.to_bits() == y.re.to_bits() && x.im.to_bits() == y.im.to_bits()));
+        assert!(same_bits(&whole, &parts));
     }
 
     #[cfg(all(feature = "std", target_arch = "x86_64"))]
@@ -1015,32 +1045,28 @@ mod tests {
         if !crate::bp::kernel::avx2::available() {
             return;
         }
-        let (bp, l) = setup(20.0);
-        let f = Factorised::new(
+        let Built {
+            bp,
             l,
-            Factorisation {
-                sub_rows: 8,
-                sub_cols: 4,
-                oversample: 4,
-            },
-            LAMBDA,
-        )
-        .unwrap();
-        let tx = txs()[1];
-        let p = profiles(&l, tx);
-        let (lo, hi) = grid_box(bp.grid());
-        let w = f.window_for_box(&bp, lo, hi, l.first, tx).unwrap();
-        let mut table = vec![Complex::default(); f.table_len(&w).unwrap()];
-        let mut scratch = vec![Complex::default(); f.scratch_len(&w)];
-        f.build(&w, &p, BINS, &mut table, &mut scratch).unwrap();
+            f,
+            tx,
+            w,
+            table,
+            ..
+        } = built(1);
         let n = bp.voxels();
         let (mut a, mut b) = (vec![Complex::default(); n], vec![Complex::default(); n]);
-        run(&f, &bp, 0, &mut a, &w, &table, l.first, tx);
-        assert!(avx2::run(&f, &bp, 0, &mut b, &w, &table, l.first, tx));
-        assert!(a
-            .iter()
-            .zip(&b)
-            .all(|(x, y)| x.re.to_bits() == y.re.to_bits() && x.im.to_bits() == y.im.to_bits()));
+        let job = Job {
+            f: &f,
+            bp: &bp,
+            w: &w,
+            table: &table,
+            first: l.first,
+            tx,
+        };
+        run(&job, 0, &mut a);
+        assert!(avx2::run(&job, 0, &mut b));
+        assert!(same_bits(&a, &b));
         assert!(a.iter().any(|z| z.norm() > 0.0));
     }
 
