@@ -648,9 +648,8 @@ pub fn image_pair(
     } else {
         (0..ne).collect()
     };
-    let exact_coherence = coherence;
     let total = (2 * nt + tx_c_idx.len()) as u64
-        + if exact_coherence {
+        + if coherence {
             coherence_elems.len() as u64
         } else {
             0
@@ -797,7 +796,7 @@ pub fn image_pair(
                 let n = bp.voxels();
                 bricks.push(Brick {
                     rx_local: rx_fine.iter().map(|&p| grid.local(p)).collect(),
-                    tx_local: if exact_coherence {
+                    tx_local: if coherence {
                         tx_fine.iter().map(|&p| grid.local(p)).collect()
                     } else {
                         Vec::new()
@@ -823,7 +822,7 @@ pub fn image_pair(
     let mut img_i = img_m.clone();
     // With the coherence test, in f32 the receive-coherence pass is the data image itself.
     let mut img_r = vec![0f32; if coherence { offset } else { 0 }];
-    let data_per_frame = !exact_coherence || opts.fixed_point || factorised;
+    let data_per_frame = !coherence || opts.fixed_point || factorised;
     let fz = if factorised {
         let fact = Factorisation {
             sub_rows: im.subarray,
@@ -929,7 +928,7 @@ pub fn image_pair(
         }
     }
     drop(table);
-    if exact_coherence {
+    if coherence {
         // The receive-coherence pass: by reciprocity (the bistatic range is symmetric in its two
         // ends) one receive element with every transmit position is a snapshot of has-dsp, and
         // its own image power, summed over the elements, is R(v) = Σ_rx |Σ_tx …|².
