@@ -265,10 +265,14 @@ pub fn pair_resolution_m(
 ///
 /// Range resolution is `c/B` in bistatic path length, i.e. `c / (B·|∇(r_V + r_R)|)` along the
 /// bisector `∇(r_V + r_R)`, where `|∇(r_V + r_R)| = 2 cos(β/2)` for bistatic angle β.
-/// Cross-range from an aperture of length `L` at distance `R` is `λR/L` for the one-way
-/// (virtual, transmitter-only) phase and for the receive array alike, along the aperture's
-/// direction (the track; the panel's horizontal tangent; the vertical) projected across the line
-/// of sight.
+/// Cross-range from an aperture of length `L` at distance `R` is `λR/L` for the receive array,
+/// along the panel's horizontal tangent and the vertical projected across the line of sight. The
+/// track's is [`track_cross_range_m`], `λR/(L·sin θ)` at angle `θ` off its axis, along the
+/// track's direction projected across the line of sight: the one-way phase varies across the
+/// track as `cos θ`, whose gradient has that direction and magnitude `sin θ/R`. Near the axis
+/// the projected direction turns with any small offset (up and down for a point a metre below a
+/// vehicle's track), and the broadside `λR/L` there would claim a fine resolution in whatever
+/// direction that is.
 pub fn pair_resolution_axes(
     point: Vec3,
     array: &PlanarArray,
@@ -281,7 +285,6 @@ pub fn pair_resolution_axes(
     let ur = (array.centre - point).normalize_or_zero();
     let grad = uv + ur;
     let range = c / (bandwidth_hz * grad.length().max(1e-3));
-    let rv = aperture.centre().distance(point);
     let rr = array.centre.distance(point);
     let across = |d: Vec3, u: Vec3| (d - u * d.dot(u)).normalize_or_zero();
     let track = (aperture.end - aperture.start).normalize_or_zero();
@@ -289,7 +292,7 @@ pub fn pair_resolution_axes(
         (grad.normalize_or_zero(), range),
         (
             across(track, uv),
-            wavelength_m * rv / aperture.length_m().max(1e-3),
+            track_cross_range_m(point, aperture, wavelength_m),
         ),
         (
             across(array.tangent(), ur),
@@ -453,6 +456,41 @@ mod tests {
             1.5,
         );
         assert!((track_cross_range_m(p, &ap, lambda) - 0.4).abs() < 1e-3);
+    }
+
+    #[test]
+    fn a_track_does_not_place_in_height_a_point_on_its_own_line() {
+        // A vehicle's 3 m track at 1.5 m, the panel 60 m off at 20 m; a ground point 30 m along
+        // the track's line, 1 m below it. The track's cross-range direction there is nearly
+        // vertical (the small offset is all that is across the line of sight), but the track
+        // resolves it only by R·√(2λ/L), metres: the height must come from the panel.
+        let ap = VirtualAperture {
+            start: Vec3::new(-1.5, 0.0, 1.5),
+            end: Vec3::new(1.5, 0.0, 1.5),
+            positions: 200,
+        };
+        let a = PlanarArray {
+            centre: Vec3::new(0.0, 60.0, 20.0),
+            boresight_az_rad: -std::f32::consts::FRAC_PI_2,
+            ..panel()
+        };
+        let (lambda, b) = (0.03, 400e6);
+        let p = Vec3::new(-30.0, 0.0, 0.5);
+        let [_, (dir, res), ..] = pair_resolution_axes(p, &a, &ap, lambda, b);
+        assert!(
+            dir.z.abs() > 0.9,
+            "the track's direction there is about vertical: {dir}"
+        );
+        assert!(
+            (res - track_cross_range_m(p, &ap, lambda)).abs() < 1e-6 && res > 3.0,
+            "{res}"
+        );
+        // The height is the panel's: its vertical cross-range, not the track's broadside λR/L.
+        let h = vertical_extent_m(p, &a, &ap, lambda, b);
+        let panel_v = lambda * a.centre.distance(p) / a.height_m;
+        assert!(h > 0.5 * panel_v, "{h} vs the panel's {panel_v}");
+        // With the broadside λR/L = 0.3 m along that direction, it was about that.
+        assert!(h > 5.0 * lambda * 30.0 / 3.0, "{h}");
     }
 
     #[test]
