@@ -211,6 +211,9 @@ pub struct PointCloudReport {
     pub unconfirmed_removed: usize,
     /// Points removed as echoes of the known terrain (`imaging.terrain_echo_test`).
     pub terrain_echoes_removed: usize,
+    /// Points removed as copies of a surface a finer pair placed at another height
+    /// (`imaging.finer_height_test`).
+    pub finer_heights_removed: usize,
 }
 
 /// What the ground truth is and how much of it the imaged pairs could see.
@@ -400,6 +403,7 @@ impl Prepared<'_> {
             observable_truth: ObservableCompleteness::new(&cmp, &observable),
             unconfirmed_removed: fused.unconfirmed,
             terrain_echoes_removed: fused.terrain_echoes,
+            finer_heights_removed: fused.finer_heights,
         };
         let any_pairing_pct = imaging::share_pct(&imaging::observable_truth(
             sc,

@@ -389,8 +389,8 @@ fn report_md(report: &RunReport) -> Result<String> {
     }
     writeln!(
         s,
-        "| points | {} ({} unconfirmed by the pairs that see them, {} terrain echoes removed) | — |",
-        pc.metrics.points, pc.unconfirmed_removed, pc.terrain_echoes_removed
+        "| points | {} ({} unconfirmed by the pairs that see them, {} terrain echoes, {} copies of a surface a finer pair placed at another height removed) | — |",
+        pc.metrics.points, pc.unconfirmed_removed, pc.terrain_echoes_removed, pc.finer_heights_removed
     )?;
     if let Some(m) = &r.mesh {
         writeln!(s, "\n| reconstructed mesh | this run | paper (Table 1) |")?;

@@ -279,6 +279,12 @@ pub struct ImagingSpec {
     /// echoes ([`super::terrain_echo`]).
     #[serde(default = "default_true")]
     pub terrain_echo_test: bool,
+    /// Drop fused points that a finer pair places at another height: copies of a roof (a
+    /// surface crossing the vertical) within the vertical resolution of the coarse pairs that
+    /// detected them, which the finer pair resolves from its own placement
+    /// ([`super::finer_height`]).
+    #[serde(default = "default_true")]
+    pub finer_height_test: bool,
     /// Which pairs are imaged when `[[pairs]]` is not given, among the base stations whose
     /// panel faces the region's centre: `"every"` (default), every such base station with every
     /// aperture — each base station receives every terminal's transmission, and each pairing

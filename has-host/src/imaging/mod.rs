@@ -6,6 +6,7 @@ pub mod config;
 pub mod confirmation;
 pub mod detection;
 pub mod driver;
+pub mod finer_height;
 pub mod run;
 pub mod sensors;
 pub mod surface;

@@ -30,6 +30,7 @@ use glam::Vec3;
 use super::config::{ImagingScenario, Pairing};
 use super::confirmation::{confirmed, PairSight};
 use super::driver::{image_pair, survey_pair, ImagingError, PairImage, PairPlan, RunOptions};
+use super::finer_height::placed_finer;
 use super::sensors::{nyquist_spacing_m, pair_resolution_m, vertical_extent_m};
 use super::terrain_echo::terrain_echoes;
 use rayon::prelude::*;
@@ -635,6 +636,9 @@ pub struct FusedCloud {
     pub unconfirmed: usize,
     /// Points dropped as echoes of the known terrain ([`drop_terrain_echoes`]).
     pub terrain_echoes: usize,
+    /// Points dropped as copies of a surface a finer pair placed at another height
+    /// ([`drop_finer_heights`]).
+    pub finer_heights: usize,
 }
 
 impl FusedCloud {
@@ -768,29 +772,12 @@ pub fn drop_terrain_echoes(
     {
         return fused;
     }
-    let (lambda, bandwidth_hz) = (
-        sc.wavelength_m() as f32,
-        (sc.radar.bandwidth_mhz * 1e6) as f32,
-    );
-    let geometry: Vec<_> = plans
-        .iter()
-        .map(|p| (sc.array(p.bs), sc.aperture(p.aperture, p.positions)))
-        .collect();
-    let (heights, layers): (Vec<f32>, Vec<f32>) = fused
+    let layers = vertical_extents(sc, plans, &fused);
+    let heights: Vec<f32> = fused
         .points
         .par_iter()
-        .zip(&fused.pair_mask)
-        .map(|(&p, &mask)| {
-            let height = world.terrain.below(p).map_or(f32::NAN, |g| p.z - g.z);
-            let layer = geometry
-                .iter()
-                .enumerate()
-                .filter(|(k, _)| *k < 64 && mask & (1 << k) != 0)
-                .map(|(_, (a, ap))| vertical_extent_m(p, a, ap, lambda, bandwidth_hz))
-                .fold(f32::INFINITY, f32::min);
-            (height, layer)
-        })
-        .unzip();
+        .map(|&p| world.terrain.below(p).map_or(f32::NAN, |g| p.z - g.z))
+        .collect();
     let echo = terrain_echoes(
         &fused.points,
         &heights,
@@ -800,6 +787,54 @@ pub fn drop_terrain_echoes(
     let keep: Vec<bool> = echo.iter().map(|&e| !e).collect();
     FusedCloud {
         terrain_echoes: echo.iter().filter(|&&e| e).count(),
+        ..fused.retain(&keep)
+    }
+}
+
+/// Each fused point's vertical extent: the finest among the pairs that kept it
+/// ([`vertical_extent_m`] at the point; infinite when no recorded pair kept it).
+pub fn vertical_extents(sc: &ImagingScenario, plans: &[PairPlan], fused: &FusedCloud) -> Vec<f32> {
+    let (lambda, bandwidth_hz) = (
+        sc.wavelength_m() as f32,
+        (sc.radar.bandwidth_mhz * 1e6) as f32,
+    );
+    let geometry: Vec<_> = plans
+        .iter()
+        .map(|p| (sc.array(p.bs), sc.aperture(p.aperture, p.positions)))
+        .collect();
+    fused
+        .points
+        .par_iter()
+        .zip(&fused.pair_mask)
+        .map(|(&p, &mask)| {
+            geometry
+                .iter()
+                .enumerate()
+                .filter(|(k, _)| *k < 64 && mask & (1 << k) != 0)
+                .map(|(_, (a, ap))| vertical_extent_m(p, a, ap, lambda, bandwidth_hz))
+                .fold(f32::INFINITY, f32::min)
+        })
+        .collect()
+}
+
+/// The fused cloud without the points a finer pair places at another height
+/// (`imaging.finer_height_test`, [`super::finer_height`]); unchanged when off.
+pub fn drop_finer_heights(
+    sc: &ImagingScenario,
+    plans: &[PairPlan],
+    fused: FusedCloud,
+) -> FusedCloud {
+    if !sc.imaging.finer_height_test || fused.points.is_empty() {
+        return fused;
+    }
+    let extents = vertical_extents(sc, plans, &fused);
+    // The fused points are finite voxel positions; an index error leaves the cloud as it is.
+    let Ok(drop) = placed_finer(&fused.points, &extents, sc.imaging.voxel_m) else {
+        return fused;
+    };
+    let keep: Vec<bool> = drop.iter().map(|&d| !d).collect();
+    FusedCloud {
+        finer_heights: drop.iter().filter(|&&d| d).count(),
         ..fused.retain(&keep)
     }
 }
@@ -932,6 +967,7 @@ pub fn run_imaging(
     let fused = fuse(sc, &plans, &images, sc.imaging.voxel_m);
     let fused = confirm(sc, world, &plans, &images, fused);
     let fused = drop_terrain_echoes(sc, world, &plans, fused);
+    let fused = drop_finer_heights(sc, &plans, fused);
     Ok(RunResult {
         plans,
         images,
