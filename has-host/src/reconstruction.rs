@@ -18,6 +18,7 @@ use std::time::Instant;
 use glam::Vec3;
 use serde::Serialize;
 
+use crate::imaging::PairImage;
 use crate::imaging::{
     self, FusedCloud, ImagingScenario, PairPlan, PairStats, RunError, RunOptions, RunResult,
     Surface, SurfaceOptions, VisibilityFiltered, World,
@@ -38,6 +39,10 @@ pub enum ReconstructError {
     /// Scoring the cloud.
     #[error("metrics: {0}")]
     Metrics(GeometryError),
+    /// Pair clouds read back that do not match the planned pairs (a missing or unreadable
+    /// file, another scenario's run).
+    #[error("pair clouds: {0}")]
+    PairImages(String),
     /// No fused point survived detection, confirmation and the terrain-echo test: nothing to
     /// score or mesh.
     #[error(
@@ -377,11 +382,120 @@ impl Prepared<'_> {
         opts: &ReconstructOptions,
         progress: &(dyn Fn(usize, u64, u64) + Sync),
     ) -> Result<Reconstruction, ReconstructError> {
+        let t1 = Instant::now();
+        let result =
+            imaging::run_imaging(self.scenario, &self.world, self.plans, opts.run, progress)?;
+        let t_imaging = t1.elapsed().as_secs_f64();
+        let echo = if opts.run.raw_ofdm {
+            "raw_ofdm_range_compressed_by_has_dsp"
+        } else {
+            "direct_range_compressed_profiles"
+        };
+        let run = Imaged {
+            scenario: self.scenario,
+            world: self.world,
+            t0: self.t0,
+            setup_s: self.setup_s,
+            t_imaging,
+            echo,
+        };
+        run.finish(result, opts)
+    }
+
+    /// [`Prepared::reconstruct`] from pair clouds imaged before — `images[k]` the points and
+    /// intensities of [`Prepared::plans`]`[k]`, e.g. read back from a run's files with
+    /// [`read_pair_images`] — instead of imaging: fusion, confirmation, the terrain-echo and
+    /// finer-height tests, the surface and the scores, as after imaging. The report's work and
+    /// timing figures of the pairs are zero; its `echo` says where the clouds came from.
+    ///
+    /// # Errors
+    /// [`ReconstructError::PairImages`] when `images` does not hold one cloud per plan;
+    /// otherwise as [`Prepared::reconstruct`].
+    pub fn reconstruct_from_images(
+        self,
+        images: Vec<PairImage>,
+        opts: &ReconstructOptions,
+    ) -> Result<Reconstruction, ReconstructError> {
+        if images.len() != self.plans.len() {
+            return Err(ReconstructError::PairImages(format!(
+                "{} pair clouds for {} planned pairs",
+                images.len(),
+                self.plans.len()
+            )));
+        }
+        let t1 = Instant::now();
+        let result = imaging::fuse_images(self.scenario, &self.world, self.plans, images);
+        let run = Imaged {
+            scenario: self.scenario,
+            world: self.world,
+            t0: self.t0,
+            setup_s: self.setup_s,
+            t_imaging: t1.elapsed().as_secs_f64(),
+            echo: "pair_clouds_read_back",
+        };
+        run.finish(result, opts)
+    }
+}
+
+/// The pair clouds a reconstruction wrote into `dir` (`pair_<name>.ply`, each vertex with its
+/// `intensity`), one per plan in order, for [`Prepared::reconstruct_from_images`]. The clouds
+/// must come from a run of the same scenario and preset: the pairs are matched by name only.
+///
+/// # Errors
+/// [`ReconstructError::PairImages`] naming the file that is missing, unreadable, without an
+/// `intensity` property, or with a non-finite point or intensity.
+pub fn read_pair_images(
+    dir: &std::path::Path,
+    plans: &[PairPlan],
+) -> Result<Vec<PairImage>, ReconstructError> {
+    plans
+        .iter()
+        .map(|p| {
+            let path = dir.join(format!("pair_{}.ply", p.name));
+            let bad =
+                |why: String| ReconstructError::PairImages(format!("{}: {why}", path.display()));
+            let data = crate::io::ply::read_ply(&path).map_err(|e| bad(e.to_string()))?;
+            let intensity = data
+                .properties
+                .into_iter()
+                .find(|(n, _)| n == "intensity")
+                .map(|(_, v)| v)
+                .ok_or_else(|| bad("no vertex property `intensity`".into()))?;
+            if let Some(i) = data.vertices.iter().position(|v| !v.is_finite()) {
+                return Err(bad(format!("vertex {i} is not finite")));
+            }
+            if let Some(i) = intensity.iter().position(|v| !v.is_finite()) {
+                return Err(bad(format!("intensity of vertex {i} is not finite")));
+            }
+            Ok(PairImage {
+                points: data.vertices,
+                intensity,
+                stats: Default::default(),
+            })
+        })
+        .collect()
+}
+
+/// A scenario's world after imaging (or reading back) its pairs, with the times so far.
+struct Imaged<'a> {
+    scenario: &'a ImagingScenario,
+    world: World,
+    t0: Instant,
+    setup_s: f64,
+    t_imaging: f64,
+    echo: &'static str,
+}
+
+impl Imaged<'_> {
+    /// Scores the fused cloud, meshes and scores the surface, and writes the report.
+    fn finish(
+        self,
+        result: RunResult,
+        opts: &ReconstructOptions,
+    ) -> Result<Reconstruction, ReconstructError> {
         let sc = self.scenario;
         let world = self.world;
-        let t1 = Instant::now();
-        let result = imaging::run_imaging(sc, &world, self.plans, opts.run, progress)?;
-        let t_imaging = t1.elapsed().as_secs_f64();
+        let t_imaging = self.t_imaging;
 
         let t2 = Instant::now();
         let fused: &FusedCloud = &result.fused;
@@ -477,11 +591,7 @@ impl Prepared<'_> {
             } else {
                 "f32"
             },
-            echo: if opts.run.raw_ofdm {
-                "raw_ofdm_range_compressed_by_has_dsp"
-            } else {
-                "direct_range_compressed_profiles"
-            },
+            echo: self.echo,
             imaging,
             mesh,
             conventions: Conventions {

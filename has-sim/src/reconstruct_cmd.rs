@@ -66,6 +66,12 @@ pub struct ReconstructArgs {
     /// Skip surface reconstruction.
     #[arg(long)]
     pub no_mesh: bool,
+    /// Do not image: read the pair clouds (`pair_*.ply`) an earlier `reconstruct` of the same
+    /// scenario and preset wrote into this directory, and fuse, confirm, mesh and score them as
+    /// after imaging — to try the post-processing of a long run again in a minute. Must not be
+    /// the `--out` directory.
+    #[arg(long)]
+    pub from_pairs: Option<PathBuf>,
 }
 
 impl ReconstructArgs {
@@ -78,6 +84,7 @@ impl ReconstructArgs {
             fixed_point: false,
             raw_ofdm: false,
             backprojection: None,
+            from_pairs: None,
             mesh_depth: None,
             mesh_trim_median: imaging::surface::DEFAULT_TRIM_MEDIAN,
             visibility_filter: false,
@@ -240,6 +247,48 @@ fn check_args(args: &ReconstructArgs) -> Result<()> {
             anyhow::bail!("--mesh-depth: {d} is not in 1..=10");
         }
     }
+    if let Some(dir) = &args.from_pairs {
+        if args.fixed_point || args.raw_ofdm || args.backprojection.is_some() {
+            anyhow::bail!(
+                "--from-pairs: {} holds imaged pair clouds; --fixed-point, --raw-ofdm and \
+                 --backprojection choose how to image and do not apply",
+                dir.display()
+            );
+        }
+        let same = match (dir.canonicalize(), args.out.canonicalize()) {
+            (Ok(a), Ok(b)) => a == b,
+            _ => false,
+        };
+        if same {
+            anyhow::bail!(
+                "--from-pairs: {} is also --out, whose files the run replaces",
+                dir.display()
+            );
+        }
+    }
+    Ok(())
+}
+
+/// Refuses pair clouds from a run of another scenario or preset: `dir/report.json` must name
+/// the same scenario file and preset.
+fn check_pairs_run(dir: &Path, scenario: &str, preset: &str) -> Result<()> {
+    let path = dir.join("report.json");
+    let text = std::fs::read_to_string(&path)
+        .with_context(|| format!("--from-pairs: reading {}", path.display()))?;
+    let v: serde_json::Value = serde_json::from_str(&text)
+        .with_context(|| format!("--from-pairs: parsing {}", path.display()))?;
+    let file = |s: &str| Path::new(s).file_name().map(|f| f.to_os_string());
+    let (run_sc, run_preset) = (
+        v["scenario"].as_str().unwrap_or_default(),
+        v["preset"].as_str().unwrap_or_default(),
+    );
+    if file(run_sc) != file(scenario) || run_preset != preset {
+        anyhow::bail!(
+            "--from-pairs: {} is a run of {run_sc} (preset {run_preset}), not of {scenario} \
+             (preset {preset})",
+            dir.display()
+        );
+    }
     Ok(())
 }
 
@@ -274,7 +323,13 @@ pub fn run(args: ReconstructArgs) -> Result<RunReport> {
             wall_columns: !args.no_wall_columns,
         }),
     };
-    execute(&args, |p, progress| p.reconstruct(&opts, progress))
+    match &args.from_pairs {
+        None => execute(&args, |p, progress| p.reconstruct(&opts, progress)),
+        Some(dir) => execute(&args, |p, _| {
+            let images = reconstruction::read_pair_images(dir, &p.plans)?;
+            p.reconstruct_from_images(images, &opts)
+        }),
+    }
 }
 
 /// Loads the scenario of `args`, has `reconstruct` reconstruct it while per-pair progress bars
@@ -289,6 +344,13 @@ fn execute(
 ) -> Result<RunReport> {
     let t0 = Instant::now();
     let (sc, scenario_name) = load(args)?;
+    if let Some(dir) = &args.from_pairs {
+        check_pairs_run(
+            dir,
+            &scenario_name,
+            if args.quick { "quick" } else { "default" },
+        )?;
+    }
     let run_dir = crate::run_dir::RunDir::start(&args.out, &OUTPUTS)?;
     let prepared = reconstruction::prepare(&sc)?;
 

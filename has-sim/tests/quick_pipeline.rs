@@ -91,6 +91,54 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
     );
 }
 
+#[test]
+fn reading_a_run_s_pair_clouds_back_reproduces_its_cloud_without_imaging() {
+    let twin = pipeline().join("twin");
+    let out = Path::new(env!("CARGO_TARGET_TMPDIR")).join("quick-pipeline-from-pairs");
+    let _ = std::fs::remove_dir_all(&out);
+    let run = |args: &[&std::ffi::OsStr]| {
+        Command::new(env!("CARGO_BIN_EXE_has-sim"))
+            .arg("reconstruct")
+            .args(args)
+            .output()
+            .expect("has-sim runs")
+    };
+    let o = run(&[
+        "--quick".as_ref(),
+        "--no-mesh".as_ref(),
+        "--from-pairs".as_ref(),
+        twin.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let (a, b) = (common::read_report(&twin), common::read_report(&out));
+    // The same pair clouds through the same fusion and tests: the same cloud, to the bit.
+    let pc = |r: &serde_json::Value| r["imaging"]["point_cloud"].clone();
+    assert_eq!(pc(&a), pc(&b));
+    assert_eq!(b["echo"].as_str(), Some("pair_clouds_read_back"));
+    assert_eq!(b["backprojections"].as_f64(), Some(0.0));
+    // Another preset's clouds, and the output directory itself, are refused by name.
+    let o = run(&[
+        "--no-mesh".as_ref(),
+        "--from-pairs".as_ref(),
+        twin.as_os_str(),
+        "--out".as_ref(),
+        out.join("default").as_os_str(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("preset quick"), "{err}");
+    let o = run(&[
+        "--quick".as_ref(),
+        "--from-pairs".as_ref(),
+        out.as_os_str(),
+        "--out".as_ref(),
+        out.as_os_str(),
+    ]);
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(!o.status.success() && err.contains("--from-pairs"), "{err}");
+}
+
 /// The written OBJ as Open3D sees it: loaded with bit-identical vertices welded (has's reader,
 /// as Open3D's `remove_duplicated_vertices`), it is edge- and vertex-manifold with no degenerate
 /// face (`is_edge_manifold`, `is_vertex_manifold`, `remove_degenerate_triangles` a no-op), and

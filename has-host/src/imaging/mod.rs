@@ -19,7 +19,7 @@ pub use driver::{
 };
 pub use run::{
     build_world, check_memory, choose_pairs, every_facing_pair, every_pairing,
-    facing_base_stations, fuse, memory_estimate, observable_truth, observing_pairs,
+    facing_base_stations, fuse, fuse_images, memory_estimate, observable_truth, observing_pairs,
     observing_sensors, plan_pairs, resolution_cell_m, resolves_the_site, run_imaging, share_pct,
     support_distance_m, survey_pairs, FusedCloud, RunError, RunResult, Terrain, World,
 };

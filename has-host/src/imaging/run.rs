@@ -964,15 +964,27 @@ pub fn run_imaging(
         let img = image_pair(sc, world, p, opts, &|d, t| progress(k, d, t))?;
         images.push(img);
     }
+    Ok(fuse_images(sc, world, plans, images))
+}
+
+/// The fused cloud of the pairs' images (one per plan, in order): [`fuse`], [`confirm`],
+/// [`drop_terrain_echoes`], [`drop_finer_heights`] — what [`run_imaging`] does after imaging,
+/// also for pair clouds imaged before (e.g. read back from a run's files).
+pub fn fuse_images(
+    sc: &ImagingScenario,
+    world: &World,
+    plans: Vec<PairPlan>,
+    images: Vec<PairImage>,
+) -> RunResult {
     let fused = fuse(sc, &plans, &images, sc.imaging.voxel_m);
     let fused = confirm(sc, world, &plans, &images, fused);
     let fused = drop_terrain_echoes(sc, world, &plans, fused);
     let fused = drop_finer_heights(sc, &plans, fused);
-    Ok(RunResult {
+    RunResult {
         plans,
         images,
         fused,
-    })
+    }
 }
 
 #[cfg(test)]
