@@ -270,8 +270,8 @@ pub struct ImagingSpec {
     /// strongest point's (0 keeps all).
     #[serde(default = "default_fusion_min")]
     pub fusion_min_weight: f32,
-    /// Cross-pair confirmation ([`super::confirmation`]): drop a fused point that this many
-    /// pairs which see its place did not detect (0 keeps every point).
+    /// Cross-pair confirmation ([`super::confirmation`]): drop a fused point that at least this
+    /// many pairs per confirming pair see and did not detect (0 keeps every point).
     #[serde(default = "default_cross_pair_denials")]
     pub cross_pair_denials: u8,
     /// Drop fused points that lie within the vertical resolution of their pairs above the known

@@ -9,41 +9,41 @@
 //! 3 m from any building (the ones that dominate √CD) are all single-pair points on open ground
 //! or in free air, and two or more pairs that see their place detected nothing there.
 //!
-//! **The test.** Pair `j` *confirms* a fused point `p` when it detected a point within the
-//! support distance of `p` (half the coarsest resolution cell of the pairs,
-//! [`super::run::support_distance_m`]: the surface that gave `p` lies within it). A point that
-//! two pairs kept, or that a pair other than the one that kept it confirms, is a *surface
-//! point*: not one pair's false alarm, never questioned. Only the other points — one pair's
-//! alone — are. Pair `j` *sees* such a point `p` when `p` lies in front of its panel
-//! (`(p − rx)·n̂ > 0`, the array's half-space), and both legs — from the panel's centre and
-//! from the aperture's centre to `p` — reach `p` through the known terrain (its scene) and past
-//! the surface points: the segment, up to twice the support distance short of `p`, passes
-//! within the support distance of none — each stands for its resolution cell's patch of
-//! surface, so a wall the cloud holds with holes (a pair saw it in part) still stands between a
-//! pair and what lies behind it (the detected surfaces are the only buildings the operator
-//! knows; on a courtyard block, legs through the gaps of the wings' shells made 877 of the 923
-//! points an earlier test removed look seen, all on the yard's walls). One pair's points block
-//! no leg: they are what the test questions, a false-alarm patch would otherwise hide itself,
-//! and a vehicle's legs run low over open ground past other pairs' false alarms. A pair that
-//! sees `p` and did not detect it *denies* it; `p` is dropped when `denials` or more pairs deny
-//! it. Since surface points are never dropped and one pair's points block nothing, one pass
+//! **The test.** Pair `j` *confirms* a fused point `p` when it kept `p` or detected a point
+//! within the support distance of `p` (half the coarsest resolution cell of the pairs,
+//! [`super::run::support_distance_m`]: the surface that gave `p` lies within it); `k(p)` pairs
+//! confirm it. A point that two pairs confirm is a *surface point* for the legs below. Pair `j`
+//! *sees* `p` when `p` lies in front of its panel (`(p − rx)·n̂ > 0`, the array's half-space),
+//! and both legs — from the panel's centre and from the aperture's centre to `p` — reach `p`
+//! through the known terrain (its scene) and past the surface points: the segment, up to twice
+//! the support distance short of `p`, passes within the support distance of none — each stands
+//! for its resolution cell's patch of surface, so a wall the cloud holds with holes (a pair saw
+//! it in part) still stands between a pair and what lies behind it (the detected surfaces are
+//! the only buildings the operator knows; on a courtyard block, legs through the gaps of the
+//! wings' shells made 877 of the 923 points an earlier test removed look seen, all on the
+//! yard's walls). One pair's points block no leg: they are what the test questions most, a
+//! false-alarm patch would otherwise hide itself, and a vehicle's legs run low over open ground
+//! past other pairs' false alarms. A pair that sees `p` and does not confirm it *denies* it;
+//! `d(p)` pairs do. `p` is dropped when `d(p) ≥ need·k(p)` (`need` = `imaging.cross_pair_denials`).
+//! Since the surface points that block legs are fixed before any point is judged, one pass
 //! decides every point.
 //!
-//! **Why two.** A seeing pair misses a true surface cell often — grazing incidence, its weaker
-//! legs, the detection's own miss rate: on the suite's quick clouds a third to a half of the
-//! points a pair sees (by the legs above) were not confirmed by it. One denial is then weak
-//! evidence; two independent misses of a true cell are several times rarer, while a false alarm
-//! is denied by every pair that sees it.
-//!
-//! **Why a confirmation outweighs any number of denials.** With `n` pairs that see a true
-//! cell, each misses it with probability `1 − q` (a third to a half, above), so a surface
-//! collects about `n·(1 − q)` denials: with every base station imaging every terminal (24 pairs
-//! on the suite's sites) a count of denials alone dropped true surface, and each dropped point
-//! opened legs for more denials — on the factory site, in rounds, the whole cloud. A false
-//! alarm is one pair's: another pair detects within the support distance of it only by its own
-//! false alarm there (at the stated rate, ≤ 10⁻⁴ per cell). One confirmation therefore makes a
-//! false alarm far less likely than a surface, whatever the denials; the denials decide only
-//! between a lone pair's point and a surface nobody else detected.
+//! **Why `need` denials per confirmation.** Each pair that sees a surface detects it with some
+//! probability `q`; each pair has a false alarm within the support distance of a given place
+//! with a much smaller probability `f`. With `k` confirmations and `d` denials the likelihood
+//! ratio of a surface against coincident false alarms is `(q/f)^k·((1 − q)/(1 − f))^d`: its
+//! logarithm is linear in `k` and `d`, so the decision is `d ≥ c·k` for one constant
+//! `c = ln(q/f) / ln((1 − f)/(1 − q))`. The one-pair rule measured on the suite — a point one
+//! pair kept is dropped when two pairs that see it deny it (a single denial is weak: a seeing pair
+//! misses a true cell often, at grazing incidence, on its weaker legs) — sets `c = need = 2`, and
+//! the same constant then holds for every `k`. An earlier version let one confirmation outweigh
+//! any number of denials (a surface would collect `n·(1 − q)` denials from `n` seeing pairs); it
+//! is not so: the legs of a pair that misses a surface cell pass within the support distance of
+//! that surface's own shell of points, so on the suite's clouds no point within 1 m of the truth
+//! has as many as six denials, while two pairs' false alarms within the support distance of each
+//! other are not rare (tens of false clusters per pair image): on tower_hall's default cloud 16
+//! points 35 m from any building, kept by BS2-UAV and BS1-V1 at 1–2 m from each other and denied
+//! by 10–23 pairs, carried a fifth of the accuracy term (docs/results.md).
 //!
 //! Units: metres; points in the world frame.
 
@@ -66,28 +66,78 @@ pub struct PairSight<'a> {
     pub detections: Option<&'a PointIndex>,
 }
 
-/// The number of pairs that deny each point (module docs). `mask[i]` has bit `k` set when pair
-/// `k` kept point `i` (such pairs never deny it); `support_m` is the confirmation radius and
-/// the point's own extent along a leg.
-pub fn denials(
+/// What the pairs say of one fused point (module docs).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Tally {
+    /// Pairs that kept the point or detected within the support distance of it.
+    pub confirmed: u8,
+    /// Pairs that see the point's place and did not confirm it.
+    pub denied: u8,
+}
+
+/// Each point's confirmations and denials (module docs). `mask[i]` has bit `k` set when pair `k`
+/// kept point `i`; `support_m` is the confirmation radius and the point's own extent along a leg.
+pub fn tallies(
     points: &[Vec3],
     mask: &[u64],
     sights: &[PairSight<'_>],
     terrain: &Scene,
     support_m: f32,
-) -> Vec<u8> {
+) -> Vec<Tally> {
+    count(points, mask, sights, terrain, support_m, None)
+}
+
+/// Which points survive the confirmation: those whose denials are fewer than `need` per
+/// confirmation ([`tallies`], module docs; `need` = 0 keeps every point).
+pub fn confirmed(
+    points: &[Vec3],
+    mask: &[u64],
+    sights: &[PairSight<'_>],
+    terrain: &Scene,
+    support_m: f32,
+    need: u8,
+) -> Vec<bool> {
+    if need == 0 {
+        return vec![true; points.len()];
+    }
+    count(points, mask, sights, terrain, support_m, Some(need))
+        .into_iter()
+        .map(|t| kept(t, need))
+        .collect()
+}
+
+fn kept(t: Tally, need: u8) -> bool {
+    u32::from(t.denied) < u32::from(need) * u32::from(t.confirmed)
+}
+
+/// [`tallies`]; with `need`, each point's legs are traced only until its fate is known (its
+/// denials reach `need` per confirmation, or the pairs left cannot make them), so its `denied`
+/// may fall short of the full count but decides as the full count would.
+fn count(
+    points: &[Vec3],
+    mask: &[u64],
+    sights: &[PairSight<'_>],
+    terrain: &Scene,
+    support_m: f32,
+    need: Option<u8>,
+) -> Vec<Tally> {
     let r2 = support_m * support_m;
+    // A pair past the 64 recorded in the mask may have kept the point: it counts as keeping it.
     let kept_by = |m: u64, k: usize| k >= 64 || (m >> k) & 1 == 1;
-    // A point a second pair kept or confirms is not one pair's false alarm: never denied, and
-    // the only kind of point that stands for a surface between a pair and another point.
+    let confirms = |p: Vec3, m: u64, k: usize| {
+        kept_by(m, k) || sights[k].detections.is_some_and(|d| d.nearest(p).1 <= r2)
+    };
+    // A point two pairs kept or confirm is not one pair's false alarm: the only kind of point
+    // that stands for a surface between a pair and another point.
     let surface: Vec<bool> = points
         .par_iter()
         .zip(mask)
         .map(|(&p, &m)| {
             m.count_ones() > 1
-                || sights.iter().enumerate().any(|(k, s)| {
-                    !kept_by(m, k) && s.detections.is_some_and(|d| d.nearest(p).1 <= r2)
-                })
+                || (0..sights.len())
+                    .filter(|&k| confirms(p, m, k))
+                    .nth(1)
+                    .is_some()
         })
         .collect();
     let walls: Vec<Vec3> = points
@@ -103,9 +153,9 @@ pub fn denials(
     // distance (a point within ~0.97 of it from the line is found), from the sensor to twice
     // the support distance short of `p` — nearer than that, the leg meets `p`'s own surface
     // (whose points lie within the support distance of a leg that arrives at more than 30° to
-    // it; a grazing pair's silence says little anyway). One pair's points — what the test
-    // questions — block nothing: a false-alarm patch would otherwise hide itself, and on open
-    // ground a vehicle's legs run low past other pairs' false alarms.
+    // it; a grazing pair's silence says little anyway). One pair's points block nothing: a
+    // false-alarm patch would otherwise hide itself, and on open ground a vehicle's legs run
+    // low past other pairs' false alarms.
     let walls = PointIndex::new("surface points", &walls).ok();
     let step = 0.5 * support_m;
     let reaches = |s: Vec3, p: Vec3| -> bool {
@@ -125,41 +175,30 @@ pub fn denials(
         .into_par_iter()
         .map(|i| {
             let (p, m) = (points[i], mask[i]);
-            if surface[i] {
-                return 0;
-            }
-            let mut n = 0u8;
+            let mut t = Tally::default();
+            let mut candidates = Vec::with_capacity(sights.len());
             for (k, s) in sights.iter().enumerate() {
-                // A pair past the 64 recorded in the mask may have kept the point: it never
-                // denies.
-                if kept_by(m, k) || (p - s.rx).dot(s.boresight) <= 0.0 {
-                    continue;
-                }
-                if reaches(s.rx, p) && reaches(s.tx, p) {
-                    n = n.saturating_add(1);
+                if confirms(p, m, k) {
+                    t.confirmed = t.confirmed.saturating_add(1);
+                } else if (p - s.rx).dot(s.boresight) > 0.0 {
+                    candidates.push(s);
                 }
             }
-            n
+            let target = need.map(|n| u32::from(n) * u32::from(t.confirmed));
+            let mut left = candidates.len() as u32;
+            for s in candidates {
+                if let Some(target) = target {
+                    if u32::from(t.denied) >= target || u32::from(t.denied) + left < target {
+                        break;
+                    }
+                }
+                left -= 1;
+                if reaches(s.rx, p) && reaches(s.tx, p) {
+                    t.denied = t.denied.saturating_add(1);
+                }
+            }
+            t
         })
-        .collect()
-}
-
-/// Which points survive the confirmation: those that fewer than `need` pairs deny
-/// ([`denials`]; `need` = 0 keeps every point).
-pub fn confirmed(
-    points: &[Vec3],
-    mask: &[u64],
-    sights: &[PairSight<'_>],
-    terrain: &Scene,
-    support_m: f32,
-    need: u8,
-) -> Vec<bool> {
-    if need == 0 {
-        return vec![true; points.len()];
-    }
-    denials(points, mask, sights, terrain, support_m)
-        .into_iter()
-        .map(|n| n < need)
         .collect()
 }
 
@@ -167,6 +206,19 @@ pub fn confirmed(
 mod tests {
     use super::*;
     use crate::scene::Scene;
+
+    fn denials(
+        points: &[Vec3],
+        mask: &[u64],
+        sights: &[PairSight<'_>],
+        terrain: &Scene,
+        support_m: f32,
+    ) -> Vec<u8> {
+        tallies(points, mask, sights, terrain, support_m)
+            .iter()
+            .map(|t| t.denied)
+            .collect()
+    }
 
     fn open_ground() -> Scene {
         let g = crate::shapes::ground(
@@ -239,12 +291,49 @@ mod tests {
     }
 
     #[test]
-    fn a_point_two_pairs_kept_is_never_denied() {
+    fn each_confirmation_outweighs_need_denials_and_no_more() {
         let p = Vec3::new(0.0, 0.0, 1.0);
         let sights = around();
         // Pairs 0 and 1 kept it; pair 2 sees the place and detected nothing.
-        let d = denials(&[p], &[0b11], &sights, &open_ground(), 1.5);
-        assert_eq!(d, vec![0]);
+        let t = tallies(&[p], &[0b11], &sights, &open_ground(), 1.5);
+        assert_eq!(
+            t,
+            vec![Tally {
+                confirmed: 2,
+                denied: 1
+            }]
+        );
+        assert_eq!(
+            confirmed(&[p], &[0b11], &sights, &open_ground(), 1.5, 2),
+            vec![true]
+        );
+        // Six pairs around it: two kept it, the other four see it and detected nothing — as
+        // unlikely for a surface as two denials of one pair's point.
+        let ring: Vec<(Vec3, Vec3)> = (0..6)
+            .map(|i| {
+                let a = i as f32 * std::f32::consts::FRAC_PI_3;
+                let u = Vec3::new(a.cos(), a.sin(), 0.0);
+                (u * 50.0 + Vec3::Z * 20.0, u * 10.0 + Vec3::Z * 1.5)
+            })
+            .collect();
+        let six: Vec<PairSight<'_>> = ring.iter().map(|&(rx, tx)| sight(rx, tx, None)).collect();
+        let keep = confirmed(&[p], &[0b11], &six, &open_ground(), 1.5, 2);
+        assert_eq!(keep, vec![false]);
+        // Three deniers (the sixth pair kept it too): kept.
+        let keep = confirmed(&[p], &[0b100011], &six, &open_ground(), 1.5, 2);
+        assert_eq!(keep, vec![true]);
+        let keep = confirmed(&[p], &[0b111], &six, &open_ground(), 1.5, 2);
+        assert_eq!(keep, vec![true]);
+        // The decision that stops tracing legs once the point's fate is known is the full
+        // count's, for every set of keepers and every need.
+        let masks: Vec<u64> = (1..64).collect();
+        let points = vec![p; masks.len()];
+        let full = tallies(&points, &masks, &six, &open_ground(), 1.5);
+        for need in 1..=4 {
+            let quick = confirmed(&points, &masks, &six, &open_ground(), 1.5, need);
+            let want: Vec<bool> = full.iter().map(|&t| kept(t, need)).collect();
+            assert_eq!(quick, want, "need {need}");
+        }
     }
 
     #[test]
@@ -276,10 +365,20 @@ mod tests {
                 Some(&far),
             ),
         ];
-        // Pair 1 confirms (1 m away): the point is not pair 0's alone, pair 3's miss
-        // notwithstanding.
-        let d = denials(&[p], &[1], &sights, &open_ground(), 1.5);
-        assert_eq!(d, vec![0]);
+        // Pair 1 confirms (1 m away): the point is not pair 0's alone; pair 3 denies (its point
+        // is 5 m off), pair 2 cannot see it; one denial against two confirmations keeps it.
+        let t = tallies(&[p], &[1], &sights, &open_ground(), 1.5);
+        assert_eq!(
+            t,
+            vec![Tally {
+                confirmed: 2,
+                denied: 1
+            }]
+        );
+        assert_eq!(
+            confirmed(&[p], &[1], &sights, &open_ground(), 1.5, 2),
+            vec![true]
+        );
         // Without pair 1's detection: pair 1 denies, pair 2 cannot see it, pair 3 denies (its
         // point is 5 m off).
         let mut sights = sights;

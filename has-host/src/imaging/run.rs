@@ -711,9 +711,9 @@ pub fn fuse(
     out
 }
 
-/// The fused cloud without the one-pair points that `imaging.cross_pair_denials` or more pairs
-/// which see their place did not detect ([`super::confirmation::confirmed`]: a point that a
-/// second pair kept or confirms is never dropped); unchanged when that is 0.
+/// The fused cloud without the points that `imaging.cross_pair_denials` or more pairs per
+/// confirming pair see and did not detect ([`super::confirmation::confirmed`]); unchanged when
+/// that is 0.
 pub fn confirm(
     sc: &ImagingScenario,
     world: &World,
