@@ -156,6 +156,7 @@ fn count(
     // it; a grazing pair's silence says little anyway). One pair's points block nothing: a
     // false-alarm patch would otherwise hide itself, and on open ground a vehicle's legs run
     // low past other pairs' false alarms.
+    let near = NearCells::new(&walls, support_m);
     let walls = PointIndex::new("surface points", &walls).ok();
     let step = 0.5 * support_m;
     let reaches = |s: Vec3, p: Vec3| -> bool {
@@ -166,9 +167,12 @@ fn count(
         }
         let dir = d / len;
         let n = ((len - 2.0 * support_m) / step).floor() as usize;
-        let blocked = walls
-            .as_ref()
-            .is_some_and(|w| (0..=n).any(|k| w.nearest(s + dir * (k as f32 * step)).1 <= r2));
+        let blocked = walls.as_ref().is_some_and(|w| {
+            (0..=n).any(|k| {
+                let q = s + dir * (k as f32 * step);
+                near.may_hold(q) && w.nearest(q).1 <= r2
+            })
+        });
         !blocked && terrain.visible(s, p)
     };
     (0..points.len())
@@ -200,6 +204,95 @@ fn count(
             t
         })
         .collect()
+}
+
+/// A lattice over a point set that marks every cell some point lies within `radius` of (by
+/// the cell's box against the point's box): a query in an unmarked cell is farther than
+/// `radius` from every point, so a leg sample there needs no nearest-neighbour search. Most of
+/// a leg runs through free air, where this answers without the tree; the decisions are those of
+/// the search alone (the same points are tested wherever a point could lie within `radius`).
+struct NearCells {
+    min: Vec3,
+    inv_cell: f32,
+    dims: [usize; 3],
+    marked: Vec<bool>,
+}
+
+impl NearCells {
+    /// At most this many cells: the cell grows past twice the radius on a wide, sparse cloud.
+    const MAX_CELLS: f64 = 4.0e6;
+
+    fn new(points: &[Vec3], radius: f32) -> NearCells {
+        // A margin over the radius: a point's box covers its ball whatever the roundings.
+        let reach = radius * 1.01 + 1e-3;
+        let (lo, hi) = points.iter().fold(
+            (Vec3::splat(f32::INFINITY), Vec3::splat(f32::NEG_INFINITY)),
+            |(lo, hi), &p| (lo.min(p), hi.max(p)),
+        );
+        if points.is_empty() || !reach.is_finite() || !(lo.is_finite() && hi.is_finite()) {
+            return NearCells {
+                min: Vec3::ZERO,
+                inv_cell: 0.0,
+                dims: [0; 3],
+                marked: Vec::new(),
+            };
+        }
+        let (min, size) = (lo - reach, hi - lo + 2.0 * reach);
+        let count = |cell: f32| size.to_array().map(|s| (s / cell).floor() as f64 + 1.0);
+        let mut cell = 2.0 * reach;
+        while count(cell).iter().product::<f64>() > Self::MAX_CELLS {
+            cell *= 2.0;
+        }
+        let inv_cell = 1.0 / cell;
+        let dim = |s: f32| ((s * inv_cell).floor() as usize).saturating_add(1);
+        let dims = [dim(size.x), dim(size.y), dim(size.z)];
+        let mut cells = NearCells {
+            min,
+            inv_cell,
+            dims,
+            marked: vec![false; dims[0] * dims[1] * dims[2]],
+        };
+        for &p in points {
+            let (a, b) = (cells.cell(p - reach), cells.cell(p + reach));
+            for z in a[2]..=b[2] {
+                for y in a[1]..=b[1] {
+                    for x in a[0]..=b[0] {
+                        let i = cells.flat([x, y, z]);
+                        cells.marked[i] = true;
+                    }
+                }
+            }
+        }
+        cells
+    }
+
+    /// The cell holding `q`, clamped to the lattice (monotone in each coordinate).
+    fn cell(&self, q: Vec3) -> [usize; 3] {
+        let u = (q - self.min) * self.inv_cell;
+        let at = |v: f32, n: usize| (v.max(0.0) as usize).min(n.saturating_sub(1));
+        [
+            at(u.x, self.dims[0]),
+            at(u.y, self.dims[1]),
+            at(u.z, self.dims[2]),
+        ]
+    }
+
+    fn flat(&self, [x, y, z]: [usize; 3]) -> usize {
+        (z * self.dims[1] + y) * self.dims[0] + x
+    }
+
+    /// False when no point lies within the radius of `q`; true when one may.
+    fn may_hold(&self, q: Vec3) -> bool {
+        if self.marked.is_empty() {
+            return false;
+        }
+        let u = (q - self.min) * self.inv_cell;
+        let inside = |v: f32, n: usize| v >= 0.0 && v < n as f32;
+        if !(inside(u.x, self.dims[0]) && inside(u.y, self.dims[1]) && inside(u.z, self.dims[2])) {
+            return false;
+        }
+        self.marked[self.flat(self.cell(q))]
+    }
 }
 
 #[cfg(test)]
@@ -253,6 +346,50 @@ mod tests {
             sight(Vec3::new(50.0, 0.0, 20.0), Vec3::new(10.0, 0.0, 1.5), None),
             sight(Vec3::new(0.0, 50.0, 20.0), Vec3::new(0.0, 10.0, 1.5), None),
         ]
+    }
+
+    #[test]
+    fn a_cell_the_lattice_leaves_unmarked_holds_no_point_within_the_radius() {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut at = |h: f32| {
+            Vec3::new(
+                rng.random_range(-h..h),
+                rng.random_range(-h..h),
+                rng.random_range(0.0..h / 4.0),
+            )
+        };
+        let points: Vec<Vec3> = (0..300).map(|_| at(20.0)).collect();
+        let queries: Vec<Vec3> = (0..20_000).map(|_| at(24.0)).collect();
+        for radius in [0.05, 0.3, 1.7] {
+            let near = NearCells::new(&points, radius);
+            let (mut skipped, mut within) = (0, 0);
+            for &q in &queries {
+                let d = points
+                    .iter()
+                    .map(|&p| p.distance(q))
+                    .fold(f32::INFINITY, f32::min);
+                if d <= radius {
+                    within += 1;
+                    assert!(
+                        near.may_hold(q),
+                        "{q} is {d} m from a point, radius {radius}"
+                    );
+                }
+                skipped += usize::from(!near.may_hold(q));
+            }
+            // With a small radius the lattice skips most of free space; the check saw points
+            // within the radius.
+            assert!(
+                radius > 1.0 || skipped > queries.len() / 2,
+                "radius {radius}: {skipped} skipped"
+            );
+            assert!(
+                within > 0 || radius < 0.1,
+                "radius {radius}: no query within it"
+            );
+        }
+        assert!(!NearCells::new(&[], 1.0).may_hold(Vec3::ZERO));
     }
 
     #[test]
