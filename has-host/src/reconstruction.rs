@@ -296,6 +296,10 @@ pub struct MeshReport {
     /// Samples added below the walls down to what they stand on
     /// ([`imaging::wall_columns`]; 0 with the option off or the terrain unknown).
     pub wall_column_samples: usize,
+    /// Samples added below the outer edges of the imaged roofs down to what they stand on
+    /// ([`imaging::wall_columns::roof_edge_walls`]; 0 with the option off or the terrain
+    /// unknown), after the wall columns' in the mesher's input.
+    pub roof_edge_samples: usize,
     /// Density trim fraction, if any (none by default).
     pub trim_median_fraction: Option<f32>,
     /// What weighs the samples.
@@ -668,6 +672,7 @@ fn mesh_stage(
         visibility_filter: surf.visibility,
         facing_away_points: surf.facing_away,
         wall_column_samples: surf.wall_column_samples,
+        roof_edge_samples: surf.roof_edge_samples,
         trim_median_fraction: opts.trim_median,
         sample_weights: "intensity",
         sample_density_per_m2: density,

@@ -63,6 +63,10 @@ pub struct ReconstructArgs {
     /// known terrain it stands on (`has_host::imaging::wall_columns`).
     #[arg(long)]
     pub no_wall_columns: bool,
+    /// Do not stand a wall under each outer edge of an imaged roof down to the terrain
+    /// (`has_host::imaging::wall_columns::roof_edge_walls`).
+    #[arg(long)]
+    pub no_roof_edge_walls: bool,
     /// Skip surface reconstruction.
     #[arg(long)]
     pub no_mesh: bool,
@@ -89,6 +93,7 @@ impl ReconstructArgs {
             mesh_trim_median: imaging::surface::DEFAULT_TRIM_MEDIAN,
             visibility_filter: false,
             no_wall_columns: false,
+            no_roof_edge_walls: false,
             no_mesh: false,
         }
     }
@@ -321,6 +326,7 @@ pub fn run(args: ReconstructArgs) -> Result<RunReport> {
             trim_median: (args.mesh_trim_median > 0.0).then_some(args.mesh_trim_median),
             visibility_filter: args.visibility_filter,
             wall_columns: !args.no_wall_columns,
+            roof_edge_walls: !args.no_roof_edge_walls,
         }),
     };
     match &args.from_pairs {

@@ -30,6 +30,10 @@
 //! - below the lowest sample of each wall, samples down to what the wall stands on — a lower
 //!   roof of the cloud or the known terrain ([`super::wall_columns`], on by default,
 //!   [`SurfaceOptions::wall_columns`]): what no pair saw of a wall whose upper part they did;
+//! - under each outer edge of an imaged roof, a wall down to the terrain
+//!   ([`super::wall_columns::roof_edge_walls`], on by default,
+//!   [`SurfaceOptions::roof_edge_walls`]): the walls no pair saw at all under roofs that pairs
+//!   did see;
 //! - optionally ([`SurfaceOptions::visibility_filter`]) points that a one level coarser first
 //!   surface hides from every pair that observed them are left out
 //!   ([`crate::mesh::visibility_consistent`], margin [`VISIBILITY_MARGIN_VOXELS`]).
@@ -42,7 +46,7 @@ use glam::Vec3;
 
 use super::config::ImagingScenario;
 use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult, Terrain};
-use super::wall_columns::wall_columns;
+use super::wall_columns::{roof_edge_walls, wall_columns};
 use crate::knn::GeometryError;
 use crate::mesh::{
     depth_for_cell, estimate_normals, reconstruct, reconstruct_oriented, visibility_consistent,
@@ -80,6 +84,9 @@ pub struct SurfaceOptions {
     pub visibility_filter: bool,
     /// Continue each wall down to what it stands on (module docs, [`super::wall_columns`]).
     pub wall_columns: bool,
+    /// Stand a wall under each outer edge of an imaged roof (module docs,
+    /// [`super::wall_columns::roof_edge_walls`]).
+    pub roof_edge_walls: bool,
 }
 
 impl Default for SurfaceOptions {
@@ -89,6 +96,7 @@ impl Default for SurfaceOptions {
             trim_median: Some(DEFAULT_TRIM_MEDIAN),
             visibility_filter: false,
             wall_columns: true,
+            roof_edge_walls: true,
         }
     }
 }
@@ -130,6 +138,9 @@ pub struct Surface {
     pub facing_away: usize,
     /// Samples added below the walls ([`super::wall_columns`]), included in `points`.
     pub wall_column_samples: usize,
+    /// Samples added below the roofs' outer edges ([`super::wall_columns::roof_edge_walls`]),
+    /// included in `points` after the wall columns'.
+    pub roof_edge_samples: usize,
     /// Seconds for the whole stage.
     pub seconds: f64,
 }
@@ -244,6 +255,17 @@ pub fn surface(
         normals.extend(cols.normals);
         weights.extend(cols.weights);
     }
+    let mut roof_edge_samples = 0;
+    if let (true, Some(terrain)) = (opts.roof_edge_walls, terrain) {
+        let region_floor = clip_box.0.z;
+        let edges = roof_edge_walls(&points, &normals, &weights, voxel, support, |p| {
+            terrain.below(p).map(|g| g.z.max(region_floor))
+        });
+        roof_edge_samples = edges.points.len();
+        points.extend(edges.points);
+        normals.extend(edges.normals);
+        weights.extend(edges.weights);
+    }
     let rec = reconstruct_oriented(&points, normals, Some(&weights), &params)?;
     Ok(Surface {
         mesh: rec.mesh,
@@ -252,6 +274,7 @@ pub fn surface(
         weights,
         facing_away,
         wall_column_samples,
+        roof_edge_samples,
         depth,
         cell_m: rec.poisson.cell_m,
         clip_box,
