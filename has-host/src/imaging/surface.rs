@@ -244,27 +244,17 @@ pub fn surface(
         .filter(|(_, &f)| f)
         .map(|(w, _)| *w)
         .collect();
-    let mut wall_column_samples = 0;
-    if let (true, Some(terrain)) = (opts.wall_columns, terrain) {
-        let region_floor = clip_box.0.z;
-        let cols = wall_columns(&points, &normals, &weights, voxel, support, |p| {
-            terrain.below(p).map(|g| g.z.max(region_floor))
-        });
-        wall_column_samples = cols.points.len();
-        points.extend(cols.points);
-        normals.extend(cols.normals);
-        weights.extend(cols.weights);
-    }
-    let mut roof_edge_samples = 0;
-    if let (true, Some(terrain)) = (opts.roof_edge_walls, terrain) {
-        let region_floor = clip_box.0.z;
-        let edges = roof_edge_walls(&points, &normals, &weights, voxel, support, |p| {
-            terrain.below(p).map(|g| g.z.max(region_floor))
-        });
-        roof_edge_samples = edges.points.len();
-        points.extend(edges.points);
-        normals.extend(edges.normals);
-        weights.extend(edges.weights);
+    let (mut wall_column_samples, mut roof_edge_samples) = (0, 0);
+    if let Some(terrain) = terrain {
+        let floor = |p: Vec3| terrain.below(p).map(|g| g.z.max(clip_box.0.z));
+        if opts.wall_columns {
+            wall_column_samples = wall_columns(&points, &normals, &weights, voxel, support, floor)
+                .append_to(&mut points, &mut normals, &mut weights);
+        }
+        if opts.roof_edge_walls {
+            roof_edge_samples = roof_edge_walls(&points, &normals, &weights, voxel, support, floor)
+                .append_to(&mut points, &mut normals, &mut weights);
+        }
     }
     let rec = reconstruct_oriented(&points, normals, Some(&weights), &params)?;
     Ok(Surface {

@@ -61,6 +61,27 @@ pub struct WallColumns {
     pub columns: usize,
 }
 
+impl WallColumns {
+    /// Appends the samples to the mesher's input; returns how many.
+    pub fn append_to(
+        self,
+        points: &mut Vec<Vec3>,
+        normals: &mut Vec<Vec3>,
+        weights: &mut Vec<f32>,
+    ) -> usize {
+        let n = self.points.len();
+        points.extend(self.points);
+        normals.extend(self.normals);
+        weights.extend(self.weights);
+        n
+    }
+}
+
+/// Whether a lattice cell and a front depth make sense (positive, finite; the front may be 0).
+fn usable(cell_m: f32, front_m: f32) -> bool {
+    cell_m > 0.0 && cell_m.is_finite() && front_m >= 0.0 && front_m.is_finite()
+}
+
 /// The samples that continue each column's lowest open-fronted wall sample down to the first
 /// lower sample of the column or of a neighbouring one, or to the terrain, in the columns whose
 /// neighbour continues too (module docs). `points`, `normals` (unit, oriented) and `weights`
@@ -77,7 +98,7 @@ pub fn wall_columns(
     floor: impl Fn(Vec3) -> Option<f32>,
 ) -> WallColumns {
     let mut out = WallColumns::default();
-    if !(cell_m > 0.0 && cell_m.is_finite() && front_m >= 0.0 && front_m.is_finite()) {
+    if !usable(cell_m, front_m) {
         return out;
     }
     let max_nz = WALL_MAX_TILT_DEG.to_radians().sin();
@@ -192,7 +213,7 @@ pub fn roof_edge_walls(
     floor: impl Fn(Vec3) -> Option<f32>,
 ) -> WallColumns {
     let mut out = WallColumns::default();
-    if !(cell_m > 0.0 && cell_m.is_finite() && front_m >= 0.0 && front_m.is_finite()) {
+    if !usable(cell_m, front_m) {
         return out;
     }
     let min_nz = WALL_MAX_TILT_DEG.to_radians().sin();
