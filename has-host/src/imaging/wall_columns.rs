@@ -75,6 +75,31 @@ impl WallColumns {
         weights.extend(self.weights);
         n
     }
+
+    /// One column of samples under `at`, from `hi` down to `lo` every `cell_m`, each with the
+    /// normal and the weight (1 when none is given) of the sample it continues.
+    fn push_column(
+        &mut self,
+        at: Vec3,
+        normal: Vec3,
+        weight: Option<&f32>,
+        (hi, lo): (f32, f32),
+        cell_m: f32,
+    ) {
+        let mut z = hi;
+        while z >= lo {
+            self.points.push(Vec3::new(at.x, at.y, z));
+            self.normals.push(normal);
+            self.weights.push(weight.copied().unwrap_or(1.0));
+            z -= cell_m;
+        }
+        self.columns += 1;
+    }
+}
+
+/// A lattice column and its eight neighbours.
+fn neighbours((x, y): (i64, i64)) -> impl Iterator<Item = (i64, i64)> {
+    (-1..=1).flat_map(move |dx| (-1..=1).map(move |dy| (x + dx, y + dy)))
 }
 
 /// Whether a lattice cell and a front depth make sense (positive, finite; the front may be 0).
@@ -146,8 +171,6 @@ pub fn wall_columns(
     // sample more than a cell under it in its own or a neighbouring lattice column (the wall's
     // own image is a resolution cell thick: a lower part imaged beside it ends the column), or
     // to the terrain.
-    let neighbours =
-        |(x, y): (i64, i64)| (-1..=1).flat_map(move |dx| (-1..=1).map(move |dy| (x + dx, y + dy)));
     let spans: BTreeMap<(i64, i64), (usize, f32, f32)> = cols
         .iter()
         .filter_map(|(&key, c)| {
@@ -167,18 +190,9 @@ pub fn wall_columns(
     // one too (a lone column is one sample's normal, and its support band would carry metres of
     // surface).
     for (&key, &(w, hi, lo)) in &spans {
-        if !neighbours(key).any(|k| k != key && spans.contains_key(&k)) {
-            continue;
+        if neighbours(key).any(|k| k != key && spans.contains_key(&k)) {
+            out.push_column(points[w], normals[w], weights.get(w), (hi, lo), cell_m);
         }
-        let top = points[w];
-        let mut z = hi;
-        while z >= lo {
-            out.points.push(Vec3::new(top.x, top.y, z));
-            out.normals.push(normals[w]);
-            out.weights.push(weights.get(w).copied().unwrap_or(1.0));
-            z -= cell_m;
-        }
-        out.columns += 1;
     }
     out
 }
@@ -266,8 +280,6 @@ pub fn roof_edge_walls(
         Vec3::new(a.cos(), a.sin(), 0.0)
     };
     let need = (EDGE_MIN_OPEN_DEG / 360.0 * EDGE_AZIMUTHS as f32).ceil() as usize;
-    let neighbours =
-        |(x, y): (i64, i64)| (-1..=1).flat_map(move |dx| (-1..=1).map(move |dy| (x + dx, y + dy)));
     let spans: BTreeMap<(i64, i64), (usize, Vec3, f32, f32)> = cols
         .iter()
         .filter_map(|(&k, (_, top))| {
@@ -317,18 +329,9 @@ pub fn roof_edge_walls(
         })
         .collect();
     for (&k, &(top, n, hi, lo)) in &spans {
-        if !neighbours(k).any(|c| c != k && spans.contains_key(&c)) {
-            continue;
+        if neighbours(k).any(|c| c != k && spans.contains_key(&c)) {
+            out.push_column(points[top], n, weights.get(top), (hi, lo), cell_m);
         }
-        let roof = points[top];
-        let mut z = hi;
-        while z >= lo {
-            out.points.push(Vec3::new(roof.x, roof.y, z));
-            out.normals.push(n);
-            out.weights.push(weights.get(top).copied().unwrap_or(1.0));
-            z -= cell_m;
-        }
-        out.columns += 1;
     }
     out
 }
