@@ -46,10 +46,13 @@ pub enum MeshingError {
     Surface(GeometryError),
 }
 
-/// Vertex property that weighs the samples when the caller names none ([`weight_column`]):
-/// `reconstruct`'s `mesh_input.ply` and `fused.ply` carry under it the detection's amplitude
-/// relative to its pair's peak.
-pub const DEFAULT_WEIGHT_PROPERTY: &str = "intensity";
+/// Vertex properties that weigh the samples when the caller names none, the first the cloud has
+/// ([`weight_column`]): `weight`, the fusion weight that `reconstruct` meshes with and writes
+/// into `mesh_input.ply` and `fused.ply` (Σ over the pairs that detected the point of its
+/// amplitude relative to the pair's peak times the pair's resolution factor,
+/// [`crate::imaging::fuse`]); else `intensity`, one pair's amplitude relative to its peak (the
+/// pair clouds, and the files of older runs).
+pub const DEFAULT_WEIGHT_PROPERTIES: [&str; 2] = ["weight", "intensity"];
 
 /// Seed of the area samples of a ground-truth mesh ([`read_truth`]).
 pub const TRUTH_SAMPLE_SEED: u64 = 1;
@@ -99,8 +102,8 @@ pub struct WeightColumn<'a> {
 }
 
 /// The sample weights of `cloud`, read from the file `path` (named in errors only): the
-/// property `name` when given; otherwise [`DEFAULT_WEIGHT_PROPERTY`] when the cloud has it and
-/// not `unweighted`; otherwise none (every sample alike).
+/// property `name` when given; otherwise the first of [`DEFAULT_WEIGHT_PROPERTIES`] the cloud
+/// has, unless `unweighted`; otherwise none (every sample alike).
 ///
 /// # Errors
 /// [`MeshInputError::NoProperty`] when the cloud lacks `name`.
@@ -110,18 +113,20 @@ pub fn weight_column<'a>(
     name: Option<&'a str>,
     unweighted: bool,
 ) -> Result<Option<WeightColumn<'a>>, MeshInputError> {
-    let property = match (name, unweighted) {
-        (Some(name), _) => name,
-        (None, false) => DEFAULT_WEIGHT_PROPERTY,
-        (None, true) => return Ok(None),
-    };
-    match cloud.property(property) {
-        Some(values) => Ok(Some(WeightColumn { property, values })),
-        None if name.is_some() => Err(MeshInputError::NoProperty {
-            path: path.to_path_buf(),
-            name: property.to_string(),
-        }),
-        None => Ok(None),
+    match (name, unweighted) {
+        (Some(property), _) => match cloud.property(property) {
+            Some(values) => Ok(Some(WeightColumn { property, values })),
+            None => Err(MeshInputError::NoProperty {
+                path: path.to_path_buf(),
+                name: property.to_string(),
+            }),
+        },
+        (None, false) => Ok(DEFAULT_WEIGHT_PROPERTIES.iter().find_map(|&property| {
+            cloud
+                .property(property)
+                .map(|values| WeightColumn { property, values })
+        })),
+        (None, true) => Ok(None),
     }
 }
 
@@ -430,13 +435,17 @@ mod tests {
     }
 
     #[test]
-    fn the_weights_are_the_named_property_else_intensity_and_a_missing_name_is_an_error() {
+    fn the_weights_are_the_named_property_else_weight_else_intensity_and_a_missing_name_is_an_error(
+    ) {
         let cloud = PlyData::from_points(vec![Vec3::ZERO; 2])
             .with_property("intensity", vec![1.0, 0.5])
             .with_property("power", vec![4.0, 2.0]);
         let path = Path::new("cloud.ply");
         let w = weight_column(&cloud, path, None, false).unwrap().unwrap();
         assert_eq!((w.property, w.values), ("intensity", &[1.0, 0.5][..]));
+        let fused = cloud.clone().with_property("weight", vec![2.0, 0.25]);
+        let w = weight_column(&fused, path, None, false).unwrap().unwrap();
+        assert_eq!((w.property, w.values), ("weight", &[2.0, 0.25][..]));
         let w = weight_column(&cloud, path, Some("power"), false).unwrap();
         assert_eq!(w.unwrap().values, [4.0, 2.0]);
         assert!(weight_column(&cloud, path, None, true).unwrap().is_none());

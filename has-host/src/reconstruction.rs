@@ -674,7 +674,7 @@ fn mesh_stage(
         wall_column_samples: surf.wall_column_samples,
         roof_edge_samples: surf.roof_edge_samples,
         trim_median_fraction: opts.trim_median,
-        sample_weights: "intensity",
+        sample_weights: "weight",
         sample_density_per_m2: density,
         seconds: surf.seconds,
     };

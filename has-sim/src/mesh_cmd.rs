@@ -98,12 +98,13 @@ pub struct MeshArgs {
     pub truth_density: f64,
     /// Weight each sample by this vertex property of the input, raised to `--weight-power`: weak
     /// samples carry less normal flux, screening and density
-    /// ([`has_host::mesh::screened_poisson_weighted`]). Default: `intensity` when the input has
-    /// it (as `reconstruct`'s `mesh_input.ply` and `fused.ply` do: the detection's amplitude
-    /// relative to its pair's peak), else every sample alike.
+    /// ([`has_host::mesh::screened_poisson_weighted`]). Default: the input's `weight` property
+    /// (the fusion weight `reconstruct` meshes with, in its `mesh_input.ply` and `fused.ply`),
+    /// else its `intensity` (a pair cloud's detection amplitude relative to the pair's peak),
+    /// else every sample alike.
     #[arg(long, conflicts_with = "unweighted")]
     pub weights: Option<String>,
-    /// Weigh every sample alike even when the input has an `intensity` property.
+    /// Weigh every sample alike even when the input has a `weight` or `intensity` property.
     #[arg(long)]
     pub unweighted: bool,
     /// Exponent applied to the weights (2 turns an amplitude into a power).

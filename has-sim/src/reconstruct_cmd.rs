@@ -140,7 +140,7 @@ fn write_mesh_files(out: &Path, rec: &Reconstruction, surf: &imaging::Surface) -
             ("nx", n.iter().map(|v| v.x).collect()),
             ("ny", n.iter().map(|v| v.y).collect()),
             ("nz", n.iter().map(|v| v.z).collect()),
-            ("intensity", surf.weights.clone()),
+            ("weight", surf.weights.clone()),
         ],
     )?;
     save_mesh(

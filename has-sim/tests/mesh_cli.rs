@@ -134,7 +134,7 @@ fn mesh_command_rejects_bad_input_with_a_named_error() {
 #[test]
 fn an_intensity_property_weights_the_samples_unless_told_otherwise() {
     // A sphere of confident samples and a small ball of weak ones 3 m outside it (a sidelobe's
-    // cluster): weighted by the cloud's `intensity`, as `reconstruct`'s `mesh_input.ply` is, the
+    // cluster): weighted by the cloud's `intensity`, as a pair cloud (`pair_*.ply`) is, the
     // ball leaves no surface; `--unweighted` meshes it; a missing `--weights` property is named.
     let d = tmp("weights");
     let mut pts = sphere(3000);

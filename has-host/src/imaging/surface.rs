@@ -5,9 +5,13 @@
 //! **The rules**, each from the imaging rather than from a site:
 //! - the Poisson grid's finest cell is [`CELL_PER_VOXEL`] of the imaging voxel (or a depth the
 //!   caller gives), whatever the site's extent;
-//! - each sample weighs its detection's `|I|` relative to its pair's peak (the fused cloud's
-//!   `intensity`): a cluster of weak detections leaves no surface of its own
-//!   ([`crate::mesh::screened_poisson_weighted`]);
+//! - each sample weighs its fusion weight (the fused cloud's `weight`, [`super::fuse`]): over the
+//!   pairs that detected it, the sum of each detection's `|I|` relative to its pair's peak times
+//!   the pair's resolution factor — the confidence the fusion already keeps points by. A cluster
+//!   of weak detections leaves no surface of its own, and where pairs of different resolution
+//!   image the same surface at slightly different places, the surface follows the finer and the
+//!   more often confirmed ([`crate::mesh::screened_poisson_weighted`]). Measured against one
+//!   pair's `|I|` (the largest) as the weight: docs/results.md, fourteenth session;
 //! - density trim below [`DEFAULT_TRIM_MEDIAN`] of the median vertex support density
 //!   ([`SurfaceOptions::trim_median`]): what the support clip keeps but only scattered weak
 //!   detections support — above all the caps Poisson closes over roofs from their vertically
@@ -121,7 +125,7 @@ pub struct Surface {
     pub points: Vec<Vec3>,
     /// One oriented normal per input point.
     pub normals: Vec<Vec3>,
-    /// One weight per input point (the fused `intensity`).
+    /// One weight per input point (the fused `weight`).
     pub weights: Vec<f32>,
     /// Poisson depth used.
     pub depth: u32,
@@ -185,9 +189,9 @@ pub fn surface(
         ..ReconstructParams::default()
     };
     let mut points = result.fused.points.clone();
-    // Each point's confidence: its detection's amplitude relative to its pair's peak. Weak
-    // detections (PSF skirts, sidelobes near the threshold) then carry less of the surface.
-    let mut weights = result.fused.intensity.clone();
+    // Each point's confidence, its fusion weight: weak detections (PSF skirts, sidelobes near
+    // the threshold), coarse pairs and unconfirmed points carry less of the surface.
+    let mut weights = result.fused.weight.clone();
     let mut observers = observing_pairs(sc, &result.plans, &result.fused);
     let mut sensors = sensors_of(&observers);
     let mut visibility = None;
