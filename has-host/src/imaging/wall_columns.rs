@@ -22,7 +22,7 @@
 //! column's lowest wall sample and down to the first lower sample of the column or of its
 //! neighbours (a lower roof the wall rises from, or the wall's lower part imaged half a cell
 //! aside) or, where there is none, to the known terrain, [`wall_columns`] places samples every
-//! `cell_m` with the wall sample's normal — where a neighbouring column continues too:
+//! `cell_m` with the wall sample's normal and weight — where a neighbouring column continues too:
 //! a wall is a surface, and one column alone is one normal's say-so whose support band would
 //! carry metres of mesh (the rotated factory, quick: two such columns from roof samples with
 //! badly estimated normals, √CD 0.87 → 0.99 m in a trial).
@@ -55,7 +55,7 @@ pub struct WallColumns {
     pub points: Vec<Vec3>,
     /// One unit normal per point: the wall sample's it continues.
     pub normals: Vec<Vec3>,
-    /// One weight per point: the median of the detections' ([`inferred_weight`]).
+    /// One weight per point: the wall sample's.
     pub weights: Vec<f32>,
     /// Columns that got samples.
     pub columns: usize,
@@ -76,13 +76,13 @@ impl WallColumns {
         n
     }
 
-    /// One column of samples under `at`, from `hi` down to `lo` every `cell_m`, each with
-    /// `normal` and `weight`.
+    /// One column of samples under `at`, from `hi` down to `lo` every `cell_m`, each with the
+    /// normal and the weight (1 when none is given) of the sample it continues.
     fn push_column(
         &mut self,
         at: Vec3,
         normal: Vec3,
-        weight: f32,
+        weight: Option<&f32>,
         (hi, lo): (f32, f32),
         cell_m: f32,
     ) {
@@ -90,26 +90,11 @@ impl WallColumns {
         while z >= lo {
             self.points.push(Vec3::new(at.x, at.y, z));
             self.normals.push(normal);
-            self.weights.push(weight);
+            self.weights.push(weight.copied().unwrap_or(1.0));
             z -= cell_m;
         }
         self.columns += 1;
     }
-}
-
-/// The weight of every sample the rules add: the median of the detections' `weights` (1 when
-/// there are none). A continued wall is an inference, not a detection: it should neither
-/// outweigh what the pairs saw nor vanish under it. With the sample it continues' own weight, a
-/// roof that one pair saw (a small fusion weight) stood walls the Poisson solve all but ignored,
-/// and the closure bulged past them again (site_11, quick: mesh √CD 0.79 against 0.88 m,
-/// docs/results.md, fourteenth session).
-pub fn inferred_weight(weights: &[f32]) -> f32 {
-    let mut w: Vec<f32> = weights.iter().copied().filter(|w| w.is_finite()).collect();
-    if w.is_empty() {
-        return 1.0;
-    }
-    let mid = w.len() / 2;
-    *w.select_nth_unstable_by(mid, f32::total_cmp).1
 }
 
 /// A lattice column and its eight neighbours.
@@ -125,8 +110,7 @@ fn usable(cell_m: f32, front_m: f32) -> bool {
 /// The samples that continue each column's lowest open-fronted wall sample down to the first
 /// lower sample of the column or of a neighbouring one, or to the terrain, in the columns whose
 /// neighbour continues too (module docs). `points`, `normals` (unit, oriented) and `weights`
-/// are the mesher's input, one entry each per sample (the added samples weigh
-/// [`inferred_weight`]); `front_m` the depth of the open front a
+/// are the mesher's input, one entry each per sample; `front_m` the depth of the open front a
 /// wall needs; `floor(p)` is the height the column under `p` ends at (the known terrain, not
 /// below the imaging region), `None` where it is not known. Deterministic: columns in lattice
 /// order, samples top down.
@@ -142,7 +126,6 @@ pub fn wall_columns(
     if !usable(cell_m, front_m) {
         return out;
     }
-    let weight = inferred_weight(weights);
     let max_nz = WALL_MAX_TILT_DEG.to_radians().sin();
     let lattice = |p: Vec3| {
         (
@@ -208,7 +191,7 @@ pub fn wall_columns(
     // surface).
     for (&key, &(w, hi, lo)) in &spans {
         if neighbours(key).any(|k| k != key && spans.contains_key(&k)) {
-            out.push_column(points[w], normals[w], weight, (hi, lo), cell_m);
+            out.push_column(points[w], normals[w], weights.get(w), (hi, lo), cell_m);
         }
     }
     out
@@ -231,7 +214,7 @@ pub const EDGE_MIN_OPEN_DEG: f32 = 45.0;
 /// above the roof's height as far as it reaches: beyond an edge is the open ground the wall
 /// stands on. Under it, from a cell below the roof down to the first lower sample of the
 /// column or of its neighbours or to `floor`, samples every `cell_m` facing the middle of the
-/// open sector, weighing [`inferred_weight`] — where a neighbouring column is an edge too.
+/// open sector, with the roof sample's weight — where a neighbouring column is an edge too.
 /// A hole in a roof (a part no pair detected) has roof on its far side and is no edge; nor is a
 /// roof inside a building whose walls were imaged, nor one that faces another building.
 /// Arguments as [`wall_columns`]. Deterministic: columns in lattice order, samples top down.
@@ -247,7 +230,6 @@ pub fn roof_edge_walls(
     if !usable(cell_m, front_m) {
         return out;
     }
-    let weight = inferred_weight(weights);
     let min_nz = WALL_MAX_TILT_DEG.to_radians().sin();
     let key = |p: Vec3| ((p.x / cell_m).floor() as i64, (p.y / cell_m).floor() as i64);
     // Per lattice column: its samples' heights and its highest sample.
@@ -348,7 +330,7 @@ pub fn roof_edge_walls(
         .collect();
     for (&k, &(top, n, hi, lo)) in &spans {
         if neighbours(k).any(|c| c != k && spans.contains_key(&c)) {
-            out.push_column(points[top], n, weight, (hi, lo), cell_m);
+            out.push_column(points[top], n, weights.get(top), (hi, lo), cell_m);
         }
     }
     out
@@ -392,21 +374,6 @@ mod tests {
         );
         assert!(c.normals.iter().all(|&m| m == Vec3::NEG_Y));
         assert!(c.weights.iter().all(|&x| x == 0.5));
-    }
-
-    #[test]
-    fn an_inferred_wall_weighs_the_median_detection_not_the_sample_it_continues() {
-        let (p, n, _) = wall(6.0, 10.0);
-        // The wall's own samples are weak (0.1); stronger detections elsewhere set the median.
-        let w: Vec<f32> = (0..p.len())
-            .map(|i| if i < 4 { 0.1 } else { 2.0 })
-            .collect();
-        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5));
-        assert!(!c.weights.is_empty());
-        assert!(c.weights.iter().all(|&x| x == 2.0), "{:?}", &c.weights[..4]);
-        assert_eq!(inferred_weight(&[3.0, 1.0, 2.0]), 2.0);
-        assert_eq!(inferred_weight(&[f32::NAN, 5.0]), 5.0);
-        assert_eq!(inferred_weight(&[]), 1.0);
     }
 
     #[test]
