@@ -190,7 +190,7 @@ pub fn surface(
     };
     let mut points = result.fused.points.clone();
     // Each point's confidence, its fusion weight: weak detections (PSF skirts, sidelobes near
-    // the threshold), coarse pairs and unconfirmed points carry less of the surface.
+    // the threshold), coarse pairs and points one pair alone kept carry less of the surface.
     let mut weights = result.fused.weight.clone();
     let mut observers = observing_pairs(sc, &result.plans, &result.fused);
     let mut sensors = sensors_of(&observers);
