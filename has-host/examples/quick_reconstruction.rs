@@ -3,13 +3,13 @@
 //!
 //! `cargo run --release -p has-host --example quick_reconstruction [SCENARIO.toml]`
 
-use has_host::imaging::ImagingScenario;
 use has_host::reconstruction::{reconstruct, ReconstructOptions};
+use has_host::scenario::Scenario;
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut sc = match std::env::args().nth(1) {
-        Some(path) => ImagingScenario::load(path.as_ref())?,
-        None => ImagingScenario::from_toml_str(include_str!("../../fixtures/factory.toml"))?,
+        Some(path) => Scenario::load(path.as_ref())?,
+        None => Scenario::from_toml_str(include_str!("../../fixtures/factory.toml"))?,
     };
     sc.apply_quick();
     sc.validate()?;

@@ -1,11 +1,11 @@
 //! The channel-prediction experiment of a scenario (paper §2) as one library call: ray-trace one
 //! BS to every UE on the true scene and on the digital twin, compare every UE
-//! ([`crate::prediction::compare_ue`]), and reduce the matched pairs and beams to a typed report
+//! ([`crate::channel_experiment::comparison::compare_ue`]), and reduce the matched pairs and beams to a typed report
 //! ([`ChannelReport`], serialised as the `channel` key of `has-sim channel`'s `report.json`).
 //!
 //! # Scenes
 //! Both scenes are all ITU concrete. The true scene is the scenario's objects; the twin is the
-//! reconstructed mesh plus the true scene's `known_objects` ([`crate::prediction::twin_objects`]).
+//! reconstructed mesh plus the true scene's `known_objects` ([`crate::channel_experiment::comparison::twin_objects`]).
 //! The UEs, the tracer settings and the codebook come from the `[channel]` table
 //! ([`ChannelSpec`]).
 //!
@@ -30,14 +30,16 @@ use rayon::prelude::*;
 use serde::Serialize;
 
 use crate::beam::DftCodebook;
-use crate::imaging::{ImagingScenario, ScenarioError};
 use crate::material::Material;
 use crate::multipath::{percentile, Match, MultipathError, ParamErrors, PathParams};
 use crate::paths::{Path, PathError, Tracer, TracerConfig};
-use crate::prediction::{compare_ue, twin_objects, with_material, ChannelSpec, UeOutcome};
+use crate::scenario::ChannelSpec;
 use crate::scenario::SceneSpecError;
+use crate::scenario::{Scenario, ScenarioError};
 use crate::scene::{Object, Scene, SceneError};
+use comparison::{compare_ue, twin_objects, with_material, UeOutcome};
 
+pub mod comparison;
 pub mod exports;
 
 pub use exports::{errors_by_param, errors_csv, ue_map, ues_csv, UeMap};
@@ -717,7 +719,7 @@ fn pct(part: usize, whole: usize) -> f64 {
 /// [`ChannelError`]: an invalid carrier, bandwidth or `[channel]` value, a scene that cannot be
 /// built, a tracer, codebook or matching setting out of range, a NaN error.
 pub fn run_channel_experiment(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     spec: &ChannelSpec,
     twin_mesh: Vec<Object>,
     run: &ChannelRunInfo,
@@ -900,9 +902,9 @@ pub fn run_channel_experiment(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::channel_experiment::comparison::BeamOutcome;
     use crate::multipath::ChamferMatch;
     use crate::paths::MAX_ORDER;
-    use crate::prediction::BeamOutcome;
 
     /// A path of `order` reflecting off `objects` (first `order` entries).
     fn path(order: usize, objects: &[u32]) -> PathParams {

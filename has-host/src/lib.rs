@@ -29,11 +29,11 @@ pub mod metrics;
 pub mod multipath;
 pub mod observability;
 pub mod paths;
-pub mod prediction;
 pub mod propagation;
 pub mod reconstruction;
 pub mod scenario;
 pub mod scene;
+pub mod sensors;
 pub mod shapes;
 pub mod suite;
 

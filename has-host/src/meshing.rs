@@ -13,7 +13,7 @@
 //!
 //! The inputs of `has-sim mesh` are read here too: the normals a PLY cloud stores
 //! ([`stored_normals`]), the vertex property that weighs its samples ([`weight_column`],
-//! [`DEFAULT_WEIGHT_PROPERTY`] unless another is named) and the ground truth, a PLY mesh sampled
+//! [`DEFAULT_WEIGHT_PROPERTIES`] unless another is named) and the ground truth, a PLY mesh sampled
 //! on its area or a PLY cloud taken as is ([`read_truth`]). [`MeshRunReport`] is the command's
 //! `--report`: the [`MeshingReport`] with the input file, the weights and the peak memory.
 

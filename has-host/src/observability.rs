@@ -11,7 +11,8 @@
 
 use serde::Serialize;
 
-use crate::imaging::{self, ImagingScenario, PairPlan, RunError};
+use crate::imaging::{self, PairPlan, RunError};
+use crate::scenario::Scenario;
 
 /// One base station–aperture pairing in an [`ObservabilityReport`].
 #[derive(Clone, Debug, Serialize)]
@@ -57,7 +58,7 @@ pub fn observed_by_any<'a>(sets: impl IntoIterator<Item = &'a [bool]>, n: usize)
 ///
 /// # Errors
 /// As [`imaging::build_world`] and [`imaging::plan_pairs`].
-pub fn observability(sc: &ImagingScenario) -> Result<ObservabilityReport, RunError> {
+pub fn observability(sc: &Scenario) -> Result<ObservabilityReport, RunError> {
     let world = imaging::build_world(sc)?;
     let planned = imaging::choose_pairs(sc, &world)?;
     let every = imaging::every_pairing(sc);

@@ -20,8 +20,8 @@ use serde::Serialize;
 
 use crate::imaging::PairImage;
 use crate::imaging::{
-    self, FusedCloud, ImagingScenario, PairPlan, PairStats, RunError, RunOptions, RunResult,
-    Surface, SurfaceOptions, VisibilityFiltered, World,
+    self, FusedCloud, PairPlan, PairStats, RunError, RunOptions, RunResult, Scenario, Surface,
+    SurfaceOptions, VisibilityFiltered, World,
 };
 use crate::knn::GeometryError;
 use crate::mesh::TriMesh;
@@ -73,7 +73,7 @@ pub struct ReconstructOptions {
 /// The world and the planned pairs of a scenario, ready to image.
 pub struct Prepared<'a> {
     /// The scenario.
-    pub scenario: &'a ImagingScenario,
+    pub scenario: &'a Scenario,
     /// Scene, scatterers, truth and terrain.
     pub world: World,
     /// The pairs that will be imaged, in order (the `pair` index of the progress callback).
@@ -87,7 +87,7 @@ pub struct Prepared<'a> {
 ///
 /// # Errors
 /// [`ReconstructError::Run`]: a scene that does not build, a region over the memory budget.
-pub fn prepare(sc: &ImagingScenario) -> Result<Prepared<'_>, ReconstructError> {
+pub fn prepare(sc: &Scenario) -> Result<Prepared<'_>, ReconstructError> {
     let t0 = Instant::now();
     let world = imaging::build_world(sc)?;
     let plans = imaging::choose_pairs(sc, &world)?;
@@ -106,7 +106,7 @@ pub fn prepare(sc: &ImagingScenario) -> Result<Prepared<'_>, ReconstructError> {
 /// # Errors
 /// [`ReconstructError`].
 pub fn reconstruct(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     opts: &ReconstructOptions,
     progress: &(dyn Fn(usize, u64, u64) + Sync),
 ) -> Result<Reconstruction, ReconstructError> {
@@ -120,7 +120,7 @@ pub fn reconstruct(
 /// # Errors
 /// [`ReconstructError`].
 pub fn reconstruct_twin(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     progress: &(dyn Fn(usize, u64, u64) + Sync),
 ) -> Result<Twin, ReconstructError> {
     prepare(sc)?.reconstruct_twin(progress)
@@ -482,7 +482,7 @@ pub fn read_pair_images(
 
 /// A scenario's world after imaging (or reading back) its pairs, with the times so far.
 struct Imaged<'a> {
-    scenario: &'a ImagingScenario,
+    scenario: &'a Scenario,
     world: World,
     t0: Instant,
     setup_s: f64,
@@ -627,7 +627,7 @@ impl Imaged<'_> {
 
 /// Meshes the fused cloud ([`imaging::surface`]) and scores its area samples.
 fn mesh_stage(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     world: &World,
     result: &RunResult,
     observable: &[bool],

@@ -310,7 +310,7 @@ impl Scene {
     /// (+z) from it hits the scene, i.e. inside or under an object. At most `1000·n` draws are
     /// made, so fewer than `n` come back when the rectangle is (almost) covered; none when it is
     /// empty or not finite. Deterministic for the seed: the UEs of the channel experiment
-    /// ([`crate::prediction::ChannelSpec::ue_positions`]) and of the paths benchmark.
+    /// ([`crate::scenario::ChannelSpec::ue_positions`]) and of the paths benchmark.
     pub fn uncovered_positions(
         &self,
         lo: [f64; 2],

@@ -2,7 +2,8 @@
 //! and with factorised back-projection of the same frames finds the same building.
 
 use glam::Vec3;
-use has_host::imaging::{self, Backprojection, ImagingScenario, RunOptions};
+use has_host::imaging::{self, Backprojection, RunOptions};
+use has_host::scenario::Scenario;
 
 /// A 8 m × 6 m × 5 m block, one base station 30 m away with a 16 × 16 panel at λ/2 (0.25 m ×
 /// 0.25 m, no grating lobes), one vehicle track 8 m in front of the block.
@@ -64,7 +65,7 @@ fn to_block(p: Vec3) -> f32 {
 }
 
 fn points(bp: Backprojection) -> Vec<Vec3> {
-    let mut sc = ImagingScenario::from_toml_str(SCENE).unwrap();
+    let mut sc = Scenario::from_toml_str(SCENE).unwrap();
     sc.imaging.backprojection = bp;
     sc.imaging.subarray = 4;
     sc.validate().unwrap();

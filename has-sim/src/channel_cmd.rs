@@ -3,7 +3,7 @@
 //! `reconstruct` unless `--twin` gives one), match the multipath sets, and report error
 //! percentiles, CDFs, the UE map and beam-selection agreement.
 //!
-//! The experiment is the scenario's `[channel]` table (`has_host::prediction::ChannelSpec`), run
+//! The experiment is the scenario's `[channel]` table (`has_host::scenario::ChannelSpec`), run
 //! by `has_host::channel_experiment::run_channel_experiment` (tracing, matching, statistics), and
 //! its tables and plot data come from `has_host::channel_experiment::exports`; this command loads,
 //! shows progress, renders the Markdown report and the plots and writes the files. Writes into
@@ -21,9 +21,9 @@ use has_host::channel_experiment::{
     errors_by_param, errors_csv, run_channel_experiment, ue_map, ues_csv, ChannelReport,
     ChannelReportFile, ChannelRunInfo, ErrorStats, TraceStage, UeMap,
 };
-use has_host::imaging::ImagingScenario;
 use has_host::io::obj::read_obj;
-use has_host::prediction::ChannelSpec;
+use has_host::scenario::ChannelSpec;
+use has_host::scenario::Scenario;
 use has_host::Material;
 use indicatif::{ProgressBar, ProgressStyle};
 use plotters::style::RGBColor;
@@ -49,7 +49,7 @@ pub struct ChannelArgs {
     pub twin: Option<PathBuf>,
 }
 
-fn load(args: &ChannelArgs) -> Result<(ImagingScenario, ChannelSpec, String)> {
+fn load(args: &ChannelArgs) -> Result<(Scenario, ChannelSpec, String)> {
     let (sc, name) = load_scenario(args.scenario.as_deref())?;
     let mut spec = sc
         .channel

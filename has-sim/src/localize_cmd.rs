@@ -10,12 +10,12 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use has_host::imaging::ImagingScenario;
 use has_host::io::save_cloud;
 use has_host::localize::{
     run_localize, DetectionCloud, LocalizeReport, LocalizeResult, LocalizeRunReport, LocalizeSpec,
     RdStage,
 };
+use has_host::scenario::Scenario;
 use indicatif::{ProgressBar, ProgressStyle};
 use plotters::style::RGBColor;
 
@@ -43,7 +43,7 @@ pub struct LocalizeArgs {
     pub truth_twin: bool,
 }
 
-fn load(args: &LocalizeArgs) -> Result<(ImagingScenario, LocalizeSpec, String)> {
+fn load(args: &LocalizeArgs) -> Result<(Scenario, LocalizeSpec, String)> {
     let (sc, name) = load_scenario(args.scenario.as_deref())?;
     let mut spec = sc
         .localize

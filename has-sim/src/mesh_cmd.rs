@@ -94,7 +94,7 @@ pub struct MeshArgs {
     pub truth: Option<PathBuf>,
     /// Sampling density of mesh surfaces for the metrics, points per m² (the default is a
     /// scenario's `imaging.truth_density_per_m2` default, as `reconstruct` scores its mesh).
-    #[arg(long, default_value_t = has_host::imaging::config::DEFAULT_TRUTH_DENSITY_PER_M2)]
+    #[arg(long, default_value_t = has_host::scenario::DEFAULT_TRUTH_DENSITY_PER_M2)]
     pub truth_density: f64,
     /// Weight each sample by this vertex property of the input, raised to `--weight-power`: weak
     /// samples carry less normal flux, screening and density

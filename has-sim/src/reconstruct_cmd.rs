@@ -7,12 +7,13 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use has_host::imaging::{self, ImagingScenario, RunOptions};
+use has_host::imaging::{self, RunOptions};
 use has_host::io::{save_cloud, save_mesh};
 use has_host::metrics::ObservableCompleteness;
 use has_host::reconstruction::{
     self, Prepared, ReconstructError, ReconstructOptions, ReconstructReport, Reconstruction,
 };
+use has_host::scenario::Scenario;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use plotters::style::RGBColor;
 use serde::Serialize;
@@ -101,18 +102,17 @@ impl ReconstructArgs {
 
 /// Loads the scenario file at `path`, or the bundled factory without one; returns it with the
 /// name reports show.
-pub fn load_scenario(path: Option<&Path>) -> Result<(ImagingScenario, String)> {
+pub fn load_scenario(path: Option<&Path>) -> Result<(Scenario, String)> {
     Ok(match path {
-        Some(p) => (ImagingScenario::load(p)?, p.display().to_string()),
+        Some(p) => (Scenario::load(p)?, p.display().to_string()),
         None => (
-            ImagingScenario::from_toml_str(FACTORY_TOML)
-                .context("bundled fixtures/factory.toml")?,
+            Scenario::from_toml_str(FACTORY_TOML).context("bundled fixtures/factory.toml")?,
             "fixtures/factory.toml (bundled)".to_string(),
         ),
     })
 }
 
-fn load(args: &ReconstructArgs) -> Result<(ImagingScenario, String)> {
+fn load(args: &ReconstructArgs) -> Result<(Scenario, String)> {
     let (mut sc, name) = load_scenario(args.scenario.as_deref())?;
     if args.quick {
         sc.apply_quick();

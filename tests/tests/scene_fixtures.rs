@@ -129,9 +129,9 @@ fn the_simulated_ground_is_the_same_when_the_site_is_turned() {
     // factory_rotated is factory_site turned by 37° about z, its region a turned polygon: every
     // ground point scatters in one exactly when its turned image does in the other (the disc
     // around the region's footprint), away from the disc's rim where f32 rounding decides.
-    use has_host::imaging::ImagingScenario;
-    let site = ImagingScenario::load(&fixtures().join("suite/factory_site.toml")).unwrap();
-    let turned = ImagingScenario::load(&fixtures().join("suite/factory_rotated.toml")).unwrap();
+    use has_host::scenario::Scenario;
+    let site = Scenario::load(&fixtures().join("suite/factory_site.toml")).unwrap();
+    let turned = Scenario::load(&fixtures().join("suite/factory_rotated.toml")).unwrap();
     let (s, c) = 37f32.to_radians().sin_cos();
     let (mut inside, mut total) = (0, 0);
     for i in -40..=40 {

@@ -272,7 +272,7 @@ pub struct BpRow {
 }
 
 /// Back-projection rates of the `f32` paths (polynomial rotor, libm sincos), the Q15 path
-/// (interpolated table rotor, `i64` accumulators), the factorised paths ([`FACTORISATIONS`]: the
+/// (interpolated table rotor, `i64` accumulators), the factorised paths (`FACTORISATIONS`: the
 /// beam table built once per snapshot, its subarrays in parallel, then read by every tile; rates
 /// in voxel × element updates, the table included) and the plain scalar loop (the baseline,
 /// last), each over

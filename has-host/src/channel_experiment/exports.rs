@@ -13,9 +13,9 @@ use glam::{DVec3, Vec3};
 use serde::Serialize;
 
 use super::{MatchedPair, PerParam};
+use crate::channel_experiment::comparison::UeOutcome;
 use crate::knn::GeometryError;
 use crate::metrics::sample_triangles;
-use crate::prediction::UeOutcome;
 use crate::scene::Scene;
 
 /// The header line of [`errors_csv`] (with its newline): one column per field of
@@ -151,11 +151,11 @@ pub fn ue_map(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::channel_experiment::comparison::BeamOutcome;
     use crate::channel_experiment::MatchDirection;
     use crate::material::Material;
     use crate::multipath::{ChamferMatch, Match, ParamErrors, PathParams};
     use crate::paths::MAX_ORDER;
-    use crate::prediction::BeamOutcome;
     use crate::scene::Object;
 
     fn path(order: usize) -> PathParams {

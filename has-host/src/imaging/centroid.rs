@@ -33,9 +33,9 @@
 use glam::{DMat3, DVec3, Vec3};
 use rayon::prelude::*;
 
-use super::sensors::{pair_resolution_axes, PlanarArray, VirtualAperture};
 use crate::knn::PointIndex;
 use crate::linalg::symmetric_eigen3;
+use crate::sensors::{pair_resolution_axes, PlanarArray, VirtualAperture};
 
 /// The direction a pair resolves worst at `point` (unit) and its extent there, metres: the
 /// weakest eigenvector of the pair's information matrix `Σ a aᵀ/δ²` (module docs) and `λ^{−1/2}`.

@@ -61,7 +61,7 @@ pub fn detected(i2: f32, c: f32, p: f32, r: Option<f32>, alpha: f32, beta: f32) 
 }
 
 /// The grating-lobe test of one detected voxel of magnitude `a = |I|` (`imaging.alias_test`,
-/// [`crate::imaging::sensors::PlanarArray::grating_aliases`]): `true` when the same image holds a
+/// [`crate::sensors::PlanarArray::grating_aliases`]): `true` when the same image holds a
 /// stronger echo within the box of half-extents `half` (metres, at least one voxel of edge
 /// `voxel_m` on each axis) around any of the voxel's `aliases` (each `(alias, half)`) — the pair
 /// cannot tell the two apart, and the weaker is the lobe. `lookup` gives `|I|` at a position, or
@@ -96,7 +96,7 @@ pub fn alias_is_stronger(
 }
 
 /// Half-extents of the grating-lobe test's box ([`alias_is_stronger`]) from the pair's
-/// resolution at the voxel ([`crate::imaging::sensors::pair_resolution_m`]: range, the virtual
+/// resolution at the voxel ([`crate::sensors::pair_resolution_m`]: range, the virtual
 /// aperture's and the panel's horizontal cross-ranges, the panel's vertical cross-range): half
 /// the coarsest horizontal extent on x and y, half the vertical one on z — the cell within which
 /// the pair cannot separate two echoes.

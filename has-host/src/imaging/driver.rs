@@ -54,17 +54,17 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use super::centroid::skirt_to_centroid;
-use super::config::{Backprojection, Detection, ImagingScenario};
 use super::detection::{
     alias_is_stronger, alias_window_m, coherence_factor, detected, direct_path_guard_m,
     effective_looks, image_false_alarm_probability, layer_looks_per_voxel, layer_window,
     local_mean, pareto_factor, CfarFactors, NadirBand,
 };
 use super::run::World;
-use super::sensors::{pair_cell_m3, pair_resolution_m, PlanarArray, VirtualAperture};
 use crate::echo::noise::ComplexGaussian;
 use crate::echo::{EchoConfig, EchoError, EchoSynth, Noise, ScattererSet, VisibilityCache};
+use crate::scenario::{Backprojection, Detection, Scenario};
 use crate::scene::Scene;
+use crate::sensors::{pair_cell_m3, pair_resolution_m, PlanarArray, VirtualAperture};
 
 /// Wavelength of the incoherent pass: phases `2π r/λ` below 10⁻⁶ rad for any path of the scene.
 const INCOHERENT_WAVELENGTH_M: f32 = 1e9;
@@ -89,7 +89,7 @@ pub enum ImagingError {
     Echo(#[from] EchoError),
     /// A scenario value that the driver cannot use.
     #[error("{0}")]
-    Scenario(#[from] super::config::ScenarioError),
+    Scenario(#[from] crate::scenario::ScenarioError),
     /// The factorised back-projection's beam tables of one snapshot would not fit in memory.
     #[error(
         "pair {pair}: the factorised beam tables of one snapshot need {need_gib:.1} GiB, \
@@ -185,7 +185,7 @@ struct PairGeometry {
     cell_vertical_m: f32,
 }
 
-fn pair_geometry(sc: &ImagingScenario, plan: &PairPlan) -> PairGeometry {
+fn pair_geometry(sc: &Scenario, plan: &PairPlan) -> PairGeometry {
     let array = sc.array(plan.bs);
     let aperture = sc.aperture(plan.aperture, plan.positions);
     let (lo, hi) = sc.region();
@@ -235,7 +235,7 @@ fn pair_geometry(sc: &ImagingScenario, plan: &PairPlan) -> PairGeometry {
 /// Bytes of the frames a pair's imaging holds for `plan`: every thinned element × transmit
 /// position × profile bin, 8 B each, for the data and (with `detection = "clutter"`) the terrain
 /// model.
-pub fn held_frames_bytes(sc: &ImagingScenario, plan: &PairPlan) -> u64 {
+pub fn held_frames_bytes(sc: &Scenario, plan: &PairPlan) -> u64 {
     let im = &sc.imaging;
     let copies = if im.detection == Detection::Clutter {
         2
@@ -405,7 +405,7 @@ enum Accs<'a> {
 /// `detection = "clutter"`, the bare known terrain through the same pair (module docs of
 /// `super::detection`).
 fn frame_sources<'a>(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     world: &'a World,
     plan: &PairPlan,
     geo: &PairGeometry,
@@ -490,7 +490,7 @@ fn frame_sources<'a>(
 /// `position_step`. Thinned arrays and apertures are jittered, not periodic (no grating lobes;
 /// see [`PlanarArray::elements_jittered`]), with a draw of their own per pair (`seed`, the
 /// pair's data seed).
-fn thinned_sensors(sc: &ImagingScenario, geo: &PairGeometry, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
+fn thinned_sensors(sc: &Scenario, geo: &PairGeometry, seed: u64) -> (Vec<Vec3>, Vec<Vec3>) {
     let im = &sc.imaging;
     let thin_seed = seed ^ THIN_SEED;
     let rx = geo.array.elements_jittered(im.element_step, thin_seed);
@@ -504,11 +504,7 @@ fn thinned_sensors(sc: &ImagingScenario, geo: &PairGeometry, seed: u64) -> (Vec<
 /// (jittered, as [`thinned_sensors`]) that the coarse pass reads: with exact back-projection the
 /// fine pass reads the thinned panel itself; with `imaging.backprojection = "factorised"` every
 /// element, row-major (the subarrays need the whole lattice).
-fn receive_elements(
-    sc: &ImagingScenario,
-    geo: &PairGeometry,
-    seed: u64,
-) -> (Vec<Vec3>, Vec<usize>) {
+fn receive_elements(sc: &Scenario, geo: &PairGeometry, seed: u64) -> (Vec<Vec3>, Vec<usize>) {
     let im = &sc.imaging;
     let (rx, _) = thinned_sensors(sc, geo, seed);
     match im.backprojection {
@@ -527,7 +523,7 @@ fn receive_elements(
 /// Indices of every `step`-th row and column of the `ne` thinned receive elements and of every
 /// `step`-th of the `nt` thinned transmit positions.
 fn every_nth(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     geo: &PairGeometry,
     ne: usize,
     nt: usize,
@@ -552,11 +548,7 @@ fn every_nth(
 ///
 /// # Errors
 /// [`ImagingError`] from has-dsp or echo synthesis.
-pub fn survey_pair(
-    sc: &ImagingScenario,
-    world: &World,
-    plan: &PairPlan,
-) -> Result<usize, ImagingError> {
+pub fn survey_pair(sc: &Scenario, world: &World, plan: &PairPlan) -> Result<usize, ImagingError> {
     let geo = pair_geometry(sc, plan);
     let clutter_ref = sc.imaging.detection == Detection::Clutter;
     let (mut src, mut model) = frame_sources(sc, world, plan, &geo, RunOptions::default())?;
@@ -606,7 +598,7 @@ pub fn survey_pair(
 /// # Errors
 /// [`ImagingError`] from has-dsp or echo synthesis (bad geometry, lengths).
 pub fn image_pair(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     world: &World,
     plan: &PairPlan,
     opts: RunOptions,
@@ -1092,12 +1084,7 @@ struct CoarseDetections {
 /// carrier phase (a wavelength far beyond any path, [`INCOHERENT_WAVELENGTH_M`]), i.e.
 /// Σ_k |s_k(r_k(v))|², the expected |I(v)|² if the echoes in the range cells that focus at v
 /// were incoherent with respect to v.
-fn bp_config(
-    sc: &ImagingScenario,
-    geo: &PairGeometry,
-    grid: VoxelGrid,
-    incoherent: bool,
-) -> BpConfig {
+fn bp_config(sc: &Scenario, geo: &PairGeometry, grid: VoxelGrid, incoherent: bool) -> BpConfig {
     BpConfig {
         grid,
         wavelength_m: if incoherent {
@@ -1131,7 +1118,7 @@ fn cfar_window(geo: &PairGeometry, voxel_m: f32, pfa: f64) -> ([usize; 3], CfarF
 /// every snapshot; work and time go to `stats`.
 #[allow(clippy::too_many_arguments)]
 fn coarse_pass(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     geo: &PairGeometry,
     clutter_ref: bool,
     tx: &[Vec3],
@@ -1384,7 +1371,7 @@ fn dims_of(lo: Vec3, hi: Vec3, v: f32) -> [usize; 3] {
 /// first, middle and last transmit positions against the panel's centre, and the panel's centre
 /// against the aperture's middle, each over the terrain point straight below it. None without a
 /// known terrain.
-fn nadir_bands(sc: &ImagingScenario, world: &World, geo: &PairGeometry) -> Vec<NadirBand> {
+fn nadir_bands(sc: &Scenario, world: &World, geo: &PairGeometry) -> Vec<NadirBand> {
     if !world.is_ground.iter().any(|&g| g) {
         return Vec::new();
     }
@@ -1403,7 +1390,7 @@ fn nadir_bands(sc: &ImagingScenario, world: &World, geo: &PairGeometry) -> Vec<N
 
 /// The range profile's main-lobe half-width in metres of bistatic path
 /// ([`direct_path_guard_m`]).
-fn main_lobe_guard_m(sc: &ImagingScenario) -> f32 {
+fn main_lobe_guard_m(sc: &Scenario) -> f32 {
     let cells = sc
         .window()
         .ok()
@@ -1417,7 +1404,7 @@ fn main_lobe_guard_m(sc: &ImagingScenario) -> f32 {
 /// anything at their grating-lobe aliases (`imaging.alias_test`), outside the pair's direct-path
 /// zone (`imaging.direct_path_guard`) and its ends' ground bands (`imaging.nadir_guard`).
 fn extract_points(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     bricks: &[Brick],
     img: &[Complex32],
     detected: &[bool],

@@ -1,19 +1,23 @@
-//! Hybrid-aperture imaging: the scenario, sensors (real and virtual apertures), the frame-by-frame
-//! driver that feeds has-dsp back-projection, pair planning, point-cloud extraction and fusion.
+//! Hybrid-aperture imaging: the frame-by-frame driver that feeds has-dsp back-projection, pair
+//! planning, point-cloud extraction and fusion, and the twin's surface. It reads the scenario file
+//! ([`crate::scenario`]) and images with the sensors of [`crate::sensors`] (re-exported here).
 
 pub mod centroid;
-pub mod config;
 pub mod confirmation;
 pub mod detection;
 pub mod driver;
 pub mod finer_height;
 pub mod run;
-pub mod sensors;
 pub mod surface;
 pub mod terrain_echo;
 pub mod wall_columns;
 
-pub use config::{Backprojection, Detection, ImagingScenario, Pairing, ScenarioError};
+pub use crate::scenario::{Backprojection, Detection, Pairing, Scenario, ScenarioError};
+pub use crate::sensors;
+
+/// The scenario file's former name here; the type is [`crate::scenario::Scenario`].
+pub type ImagingScenario = Scenario;
+pub use crate::sensors::{nyquist_spacing_m, pair_resolution_m, PlanarArray, VirtualAperture};
 pub use driver::{
     image_pair, survey_pair, ImagingError, PairImage, PairPlan, PairStats, RunOptions,
 };
@@ -23,5 +27,4 @@ pub use run::{
     observing_sensors, plan_pairs, resolution_cell_m, resolves_the_site, run_imaging, share_pct,
     support_distance_m, survey_pairs, FusedCloud, RunError, RunResult, Terrain, World,
 };
-pub use sensors::{nyquist_spacing_m, pair_resolution_m, PlanarArray, VirtualAperture};
 pub use surface::{surface, Surface, SurfaceOptions, VisibilityFiltered};

@@ -27,12 +27,12 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use super::config::{ImagingScenario, Pairing};
 use super::confirmation::{confirmed, PairSight};
 use super::driver::{image_pair, survey_pair, ImagingError, PairImage, PairPlan, RunOptions};
 use super::finer_height::placed_finer;
-use super::sensors::{nyquist_spacing_m, pair_resolution_m, vertical_extent_m};
 use super::terrain_echo::terrain_echoes;
+use crate::scenario::{Pairing, Scenario};
+use crate::sensors::{nyquist_spacing_m, pair_resolution_m, vertical_extent_m};
 use rayon::prelude::*;
 
 use crate::echo::ScattererSet;
@@ -94,7 +94,7 @@ pub enum RunError {
     Imaging(#[from] ImagingError),
     /// A scenario value the scene makes invalid (a site too far from the origin).
     #[error(transparent)]
-    Scenario(#[from] super::config::ScenarioError),
+    Scenario(#[from] crate::scenario::ScenarioError),
     /// Echo synthesis refused the scatterer model.
     #[error("scatterers: {0}")]
     Echo(#[from] crate::echo::EchoError),
@@ -177,7 +177,7 @@ pub const IMAGING_BYTES_PER_VOXEL: usize = 3 * 8 + 16 + 8 + 4 + 8 + 5 * 4 + 48 +
 /// Fine voxels of the region's bounding box and the worst-case bytes one pair's imaging needs:
 /// [`IMAGING_BYTES_PER_VOXEL`] per voxel plus the frames the imaging holds for the largest
 /// pairing ([`super::driver::held_frames_bytes`]).
-pub fn memory_estimate(sc: &ImagingScenario) -> (usize, u64) {
+pub fn memory_estimate(sc: &Scenario) -> (usize, u64) {
     let m = memory_parts(sc);
     (m.voxels, m.voxel_bytes.saturating_add(m.frame_bytes))
 }
@@ -191,7 +191,7 @@ struct MemoryParts {
     pair: String,
 }
 
-fn memory_parts(sc: &ImagingScenario) -> MemoryParts {
+fn memory_parts(sc: &Scenario) -> MemoryParts {
     let (lo, hi) = sc.region();
     let d = ((hi - lo) / sc.imaging.voxel_m).floor() + Vec3::ONE;
     let voxels = (d.x as f64 * d.y as f64 * d.z as f64).min(usize::MAX as f64) as usize;
@@ -213,7 +213,7 @@ fn memory_parts(sc: &ImagingScenario) -> MemoryParts {
 ///
 /// # Errors
 /// [`RunError::TooLarge`] with the estimate, its two parts and the fields of the larger one.
-pub fn check_memory(sc: &ImagingScenario) -> Result<(), RunError> {
+pub fn check_memory(sc: &Scenario) -> Result<(), RunError> {
     let m = memory_parts(sc);
     let need = m.voxel_bytes.saturating_add(m.frame_bytes);
     if let Some((need_gib, have_gib)) = crate::memory::shortfall(need as f64) {
@@ -242,7 +242,7 @@ pub fn check_memory(sc: &ImagingScenario) -> Result<(), RunError> {
 /// # Errors
 /// [`RunError`] naming what is wrong; [`RunError::TooLarge`] for a region that would not fit in
 /// memory ([`check_memory`]), before the scene is built.
-pub fn build_world(sc: &ImagingScenario) -> Result<World, RunError> {
+pub fn build_world(sc: &Scenario) -> Result<World, RunError> {
     check_memory(sc)?;
     let scene = sc.scene.build()?;
     let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
@@ -353,11 +353,7 @@ pub fn build_world(sc: &ImagingScenario) -> Result<World, RunError> {
 const TERRAIN_MODEL_SEED: u64 = 0x7E22_A1D0_5EED_0001;
 
 /// The known terrain (module [`World::terrain`]).
-fn terrain_model(
-    sc: &ImagingScenario,
-    scene: &Scene,
-    is_ground: &[bool],
-) -> Result<Terrain, RunError> {
+fn terrain_model(sc: &Scenario, scene: &Scene, is_ground: &[bool]) -> Result<Terrain, RunError> {
     let ground: Vec<crate::scene::Object> = scene
         .objects
         .iter()
@@ -390,7 +386,7 @@ fn terrain_model(
 }
 
 /// Nyquist transmit positions of aperture `ai` for the imaging region.
-pub fn default_positions(sc: &ImagingScenario, ai: usize) -> usize {
+pub fn default_positions(sc: &Scenario, ai: usize) -> usize {
     if let Some(n) = sc.apertures[ai].positions {
         return n;
     }
@@ -434,7 +430,7 @@ pub fn default_positions(sc: &ImagingScenario, ai: usize) -> usize {
 ///
 /// # Errors
 /// [`RunError::NoPairs`] if no pair qualifies; [`RunError`] from the survey.
-pub fn choose_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, RunError> {
+pub fn choose_pairs(sc: &Scenario, world: &World) -> Result<Vec<PairPlan>, RunError> {
     match sc.imaging.pairing {
         Pairing::Survey if sc.pairs.is_empty() => survey_pairs(sc, world),
         Pairing::Every if sc.pairs.is_empty() => every_facing_pair(sc),
@@ -449,7 +445,7 @@ pub fn choose_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>
 ///
 /// # Errors
 /// [`RunError::NoPairs`] if no such pair exists.
-pub fn every_facing_pair(sc: &ImagingScenario) -> Result<Vec<PairPlan>, RunError> {
+pub fn every_facing_pair(sc: &Scenario) -> Result<Vec<PairPlan>, RunError> {
     let plans: Vec<PairPlan> = facing_base_stations(sc)
         .into_iter()
         .enumerate()
@@ -469,7 +465,7 @@ pub fn every_facing_pair(sc: &ImagingScenario) -> Result<Vec<PairPlan>, RunError
 ///
 /// # Errors
 /// [`RunError::NoPairs`] if no base station faces the region.
-pub fn plan_pairs(sc: &ImagingScenario) -> Result<Vec<PairPlan>, RunError> {
+pub fn plan_pairs(sc: &Scenario) -> Result<Vec<PairPlan>, RunError> {
     let mut plans = Vec::new();
     if sc.pairs.is_empty() {
         for (ai, candidates) in facing_base_stations(sc).into_iter().enumerate() {
@@ -511,7 +507,7 @@ pub fn plan_pairs(sc: &ImagingScenario) -> Result<Vec<PairPlan>, RunError> {
 ///
 /// # Errors
 /// [`RunError::NoPairs`] if no base station faces the region; [`RunError`] from the survey.
-pub fn survey_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>, RunError> {
+pub fn survey_pairs(sc: &Scenario, world: &World) -> Result<Vec<PairPlan>, RunError> {
     let mut plans = Vec::new();
     for (ai, candidates) in facing_base_stations(sc).into_iter().enumerate() {
         let mut best: Option<(usize, usize, f32)> = None;
@@ -543,7 +539,7 @@ pub fn survey_pairs(sc: &ImagingScenario, world: &World) -> Result<Vec<PairPlan>
 /// it; measured 7.6–72 m range cells on held-out sites) or along its track's axis: its image
 /// smears every echo across the site, and its cell would set the support distance of every
 /// other pair's points ([`support_distance_m`]).
-pub fn resolves_the_site(sc: &ImagingScenario, bs: usize, ai: usize) -> bool {
+pub fn resolves_the_site(sc: &Scenario, bs: usize, ai: usize) -> bool {
     let (lo, hi) = sc.region();
     let (r, xv, _xh, xz) = pair_resolution_m(
         (lo + hi) * 0.5,
@@ -557,7 +553,7 @@ pub fn resolves_the_site(sc: &ImagingScenario, bs: usize, ai: usize) -> bool {
 
 /// Per aperture, the base stations whose panel faces the region's centre, each with the pair's
 /// resolution cell there ([`resolution_cell_m`]), in base-station order.
-pub fn facing_base_stations(sc: &ImagingScenario) -> Vec<Vec<(usize, f32)>> {
+pub fn facing_base_stations(sc: &Scenario) -> Vec<Vec<(usize, f32)>> {
     let (lo, hi) = sc.region();
     let centre = (lo + hi) * 0.5;
     (0..sc.apertures.len())
@@ -582,7 +578,7 @@ pub fn facing_base_stations(sc: &ImagingScenario) -> Vec<Vec<(usize, f32)>> {
 /// ([`super::sensors::pair_resolution_m`]; the panel's horizontal cross-range is the coarser of
 /// the two horizontal ones and does not set the cell).
 pub fn resolution_cell_m(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     bs: usize,
     ai: usize,
     positions: usize,
@@ -601,14 +597,14 @@ pub fn resolution_cell_m(
 /// Every (base station, aperture) combination of the scenario, whether or not [`plan_pairs`]
 /// would image it: with [`observable_truth`], how much of the truth any
 /// pairing of these sensors could observe — the ceiling of the pairing choice.
-pub fn every_pairing(sc: &ImagingScenario) -> Vec<PairPlan> {
+pub fn every_pairing(sc: &Scenario) -> Vec<PairPlan> {
     (0..sc.base_stations.len())
         .flat_map(|bs| (0..sc.apertures.len()).map(move |ai| pair_plan(sc, bs, ai)))
         .collect()
 }
 
 /// The plan of base station `bs` with aperture `ai` (named `"BS-aperture"`, default sampling).
-fn pair_plan(sc: &ImagingScenario, bs: usize, ai: usize) -> PairPlan {
+fn pair_plan(sc: &Scenario, bs: usize, ai: usize) -> PairPlan {
     PairPlan {
         name: format!("{}-{}", sc.base_stations[bs].name, sc.apertures[ai].name),
         bs,
@@ -664,12 +660,7 @@ impl FusedCloud {
 }
 
 /// Fuses the pairs' clouds (module docs).
-pub fn fuse(
-    sc: &ImagingScenario,
-    plans: &[PairPlan],
-    images: &[PairImage],
-    voxel_m: f32,
-) -> FusedCloud {
+pub fn fuse(sc: &Scenario, plans: &[PairPlan], images: &[PairImage], voxel_m: f32) -> FusedCloud {
     let (lo, hi) = sc.region();
     let centre = (lo + hi) * 0.5;
     let cells: Vec<f32> = plans
@@ -715,7 +706,7 @@ pub fn fuse(
 /// confirming pair see and did not detect ([`super::confirmation::confirmed`]); unchanged when
 /// that is 0.
 pub fn confirm(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     world: &World,
     plans: &[PairPlan],
     images: &[PairImage],
@@ -761,7 +752,7 @@ pub fn confirm(
 /// [`super::terrain_echo`]): each point's height above the terrain straight below it, its layer
 /// the finest vertical extent among the pairs that kept it; unchanged without a known terrain.
 pub fn drop_terrain_echoes(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     world: &World,
     plans: &[PairPlan],
     fused: FusedCloud,
@@ -793,7 +784,7 @@ pub fn drop_terrain_echoes(
 
 /// Each fused point's vertical extent: the finest among the pairs that kept it
 /// ([`vertical_extent_m`] at the point; infinite when no recorded pair kept it).
-pub fn vertical_extents(sc: &ImagingScenario, plans: &[PairPlan], fused: &FusedCloud) -> Vec<f32> {
+pub fn vertical_extents(sc: &Scenario, plans: &[PairPlan], fused: &FusedCloud) -> Vec<f32> {
     let (lambda, bandwidth_hz) = (
         sc.wavelength_m() as f32,
         (sc.radar.bandwidth_mhz * 1e6) as f32,
@@ -819,11 +810,7 @@ pub fn vertical_extents(sc: &ImagingScenario, plans: &[PairPlan], fused: &FusedC
 
 /// The fused cloud without the points a finer pair places at another height
 /// (`imaging.finer_height_test`, [`super::finer_height`]); unchanged when off.
-pub fn drop_finer_heights(
-    sc: &ImagingScenario,
-    plans: &[PairPlan],
-    fused: FusedCloud,
-) -> FusedCloud {
+pub fn drop_finer_heights(sc: &Scenario, plans: &[PairPlan], fused: FusedCloud) -> FusedCloud {
     if !sc.imaging.finer_height_test || fused.points.is_empty() {
         return fused;
     }
@@ -842,7 +829,7 @@ pub fn drop_finer_heights(
 /// For each fused point, the (aperture centre, panel centre) of every pair that observed it: the
 /// transmitter and receiver of its echo.
 pub fn observing_pairs(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     plans: &[PairPlan],
     fused: &FusedCloud,
 ) -> Vec<Vec<[Vec3; 2]>> {
@@ -866,11 +853,7 @@ pub fn observing_pairs(
 
 /// For each fused point, the positions of the sensors (panel centre and aperture centre of every
 /// pair) that observed it: what surface normals are oriented toward.
-pub fn observing_sensors(
-    sc: &ImagingScenario,
-    plans: &[PairPlan],
-    fused: &FusedCloud,
-) -> Vec<Vec<Vec3>> {
+pub fn observing_sensors(sc: &Scenario, plans: &[PairPlan], fused: &FusedCloud) -> Vec<Vec<Vec3>> {
     sensors_of(&observing_pairs(sc, plans, fused))
 }
 
@@ -888,7 +871,7 @@ pub fn sensors_of(observers: &[Vec<[Vec3; 2]>]) -> Vec<Vec<Vec3>> {
 /// the bistatic path in line of sight; a ray into the solid behind the surface is blocked). The
 /// rest of the truth (e.g. valleys of a sawtooth roof below every sensor's line of sight) can only
 /// be inferred by the surface reconstruction, never imaged.
-pub fn observable_truth(sc: &ImagingScenario, world: &World, plans: &[PairPlan]) -> Vec<bool> {
+pub fn observable_truth(sc: &Scenario, world: &World, plans: &[PairPlan]) -> Vec<bool> {
     let sensors: Vec<(Vec3, [Vec3; 3])> = plans
         .iter()
         .map(|p| {
@@ -914,7 +897,7 @@ pub fn observable_truth(sc: &ImagingScenario, world: &World, plans: &[PairPlan])
 /// surface that produced it lies within half the cell's largest extent; mesh farther than that
 /// from every point is the mesher's extrapolation (e.g. a Poisson surface closing an open cloud
 /// across a site).
-pub fn support_distance_m(sc: &ImagingScenario, plans: &[PairPlan]) -> f32 {
+pub fn support_distance_m(sc: &Scenario, plans: &[PairPlan]) -> f32 {
     let (lo, hi) = sc.region();
     let centre = (lo + hi) * 0.5;
     plans
@@ -952,7 +935,7 @@ pub struct RunResult {
 /// # Errors
 /// [`RunError`].
 pub fn run_imaging(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     world: &World,
     plans: Vec<PairPlan>,
     opts: RunOptions,
@@ -971,7 +954,7 @@ pub fn run_imaging(
 /// [`drop_terrain_echoes`], [`drop_finer_heights`] — what [`run_imaging`] does after imaging,
 /// also for pair clouds imaged before (e.g. read back from a run's files).
 pub fn fuse_images(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     world: &World,
     plans: Vec<PairPlan>,
     images: Vec<PairImage>,
@@ -991,14 +974,14 @@ pub fn fuse_images(
 mod tests {
     use super::*;
 
-    fn factory() -> ImagingScenario {
-        ImagingScenario::from_toml_str(include_str!("../../../fixtures/factory.toml"))
+    fn factory() -> Scenario {
+        Scenario::from_toml_str(include_str!("../../../fixtures/factory.toml"))
             .expect("bundled factory")
     }
 
     #[test]
     fn the_pairing_turns_with_the_site_and_never_takes_a_panel_facing_away() {
-        let named = |sc: &ImagingScenario| -> Vec<(String, String)> {
+        let named = |sc: &Scenario| -> Vec<(String, String)> {
             plan_pairs(sc)
                 .expect("pairs")
                 .iter()
@@ -1010,7 +993,7 @@ mod tests {
                 })
                 .collect()
         };
-        let load = |text: &str| ImagingScenario::from_toml_str(text).expect("scenario");
+        let load = |text: &str| Scenario::from_toml_str(text).expect("scenario");
         let site_text = include_str!("../../../fixtures/suite/factory_site.toml");
         let site = load(site_text);
         let turned = load(include_str!("../../../fixtures/suite/factory_rotated.toml"));
@@ -1049,17 +1032,16 @@ mod tests {
     /// the finest-cell choice among them, and a panel turned away from the site never.
     #[test]
     fn every_base_station_facing_the_site_images_every_terminal_and_none_facing_away() {
-        let site = ImagingScenario::from_toml_str(include_str!(
-            "../../../fixtures/suite/factory_site.toml"
-        ))
-        .expect("scenario");
+        let site =
+            Scenario::from_toml_str(include_str!("../../../fixtures/suite/factory_site.toml"))
+                .expect("scenario");
         let names = |plans: &[PairPlan]| -> Vec<String> {
             plans.iter().map(|p| p.name.clone()).collect::<Vec<_>>()
         };
         let every = every_facing_pair(&site).expect("pairs");
         let (lo, hi) = site.region();
         let centre = (lo + hi) * 0.5;
-        let faces = |sc: &ImagingScenario, bs: usize| {
+        let faces = |sc: &Scenario, bs: usize| {
             let a = sc.array(bs);
             (centre - a.centre).dot(a.boresight()) > 0.0
         };
@@ -1079,7 +1061,7 @@ mod tests {
         // A pair that sees the street row near forward scatter (BS3 with V1: a range cell of
         // 8.9 m against the panel's 3.7 m vertically) is left out.
         let street =
-            ImagingScenario::from_toml_str(include_str!("../../../fixtures/suite/street_row.toml"))
+            Scenario::from_toml_str(include_str!("../../../fixtures/suite/street_row.toml"))
                 .expect("scenario");
         let pairs = names(&every_facing_pair(&street).expect("pairs"));
         assert!(!pairs.contains(&"BS3-V1".to_string()), "{pairs:?}");
@@ -1100,7 +1082,7 @@ mod tests {
     fn a_survey_counts_the_site_a_pair_sees_and_nothing_behind_a_screen() {
         let text = include_str!("../../../fixtures/factory.toml");
         let load = |t: &str| {
-            let mut sc = ImagingScenario::from_toml_str(t).expect("scenario");
+            let mut sc = Scenario::from_toml_str(t).expect("scenario");
             sc.apply_quick();
             sc
         };
@@ -1195,7 +1177,7 @@ mod tests {
 
     #[test]
     fn a_turned_site_gets_the_transmit_positions_of_the_unturned_one() {
-        let load = |t: &str| ImagingScenario::from_toml_str(t).expect("suite site");
+        let load = |t: &str| Scenario::from_toml_str(t).expect("suite site");
         let site = load(include_str!("../../../fixtures/suite/factory_site.toml"));
         let turned = load(include_str!("../../../fixtures/suite/factory_rotated.toml"));
         assert_eq!(site.apertures.len(), turned.apertures.len());

@@ -48,7 +48,6 @@ use std::time::Instant;
 
 use glam::Vec3;
 
-use super::config::ImagingScenario;
 use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult, Terrain};
 use super::wall_columns::{roof_edge_walls, wall_columns};
 use crate::knn::GeometryError;
@@ -56,6 +55,7 @@ use crate::mesh::{
     depth_for_cell, estimate_normals, reconstruct, reconstruct_oriented, visibility_consistent,
     Orientation, PoissonParams, ReconstructParams, TriMesh, Trim,
 };
+use crate::scenario::Scenario;
 
 /// Connected components of the mesh below this fraction of the largest one's area are dropped
 /// (blobs around ghost points).
@@ -155,7 +155,7 @@ pub struct Surface {
 /// # Errors
 /// A trim fraction outside (0, 1]; as [`reconstruct`] and [`visibility_consistent`].
 pub fn surface(
-    sc: &ImagingScenario,
+    sc: &Scenario,
     terrain: Option<&Terrain>,
     result: &RunResult,
     opts: &SurfaceOptions,
@@ -316,8 +316,7 @@ mod tests {
 
     #[test]
     fn a_bad_trim_or_an_empty_cloud_is_an_error_naming_it() {
-        let sc =
-            ImagingScenario::from_toml_str(include_str!("../../../fixtures/factory.toml")).unwrap();
+        let sc = Scenario::from_toml_str(include_str!("../../../fixtures/factory.toml")).unwrap();
         let empty = RunResult {
             plans: Vec::new(),
             images: Vec::new(),

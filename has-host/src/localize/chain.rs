@@ -56,9 +56,9 @@ use has_dsp::DspError;
 use num_complex::Complex32 as C32;
 use rayon::prelude::*;
 
-use super::config::LocalizeSpec;
 use super::LocalizeError;
 use crate::imaging::PlanarArray;
+use crate::scenario::LocalizeSpec;
 
 /// Columns of the ECA basis used here (`K = 1` delay × up to 3 Doppler bins).
 pub const ECA_M: usize = 4;
@@ -255,7 +255,7 @@ impl Chain {
             .filter(|&w| w < rc.profile_len());
         let Some(window) = window else {
             return Err(LocalizeError::Config(
-                crate::imaging::ScenarioError::Invalid {
+                crate::scenario::ScenarioError::Invalid {
                     field: "localize.cfar_guard".into(),
                     value: format!("{}", spec.cfar_guard),
                     expected:
@@ -264,7 +264,7 @@ impl Chain {
             ));
         };
         if bin1 <= bin0 + window {
-            return Err(LocalizeError::Config(crate::imaging::ScenarioError::Invalid {
+            return Err(LocalizeError::Config(crate::scenario::ScenarioError::Invalid {
                 field: "localize.range_max_m".into(),
                 value: format!("{}", spec.range_max_m),
                 expected: "a range window longer than the CFAR window and inside the unambiguous range",
@@ -286,7 +286,7 @@ impl Chain {
         let kr1 = ((el_hi.to_radians().sin() / u_step_z).floor() as i32).min(half - 1);
         if kc1 < kc0 || kr1 < kr0 {
             return Err(LocalizeError::Config(
-                crate::imaging::ScenarioError::Invalid {
+                crate::scenario::ScenarioError::Invalid {
                     field: "localize.fov_elevation_deg".into(),
                     value: format!("{:?}", spec.fov_elevation_deg),
                     expected: "a field of view holding at least one beam",
@@ -797,7 +797,7 @@ pub fn range_segment_templates(pred: &[C32], nb: usize, count: usize) -> Vec<C32
 mod tests {
     use super::*;
     use crate::echo::{EchoConfig, EchoSynth, PointScatterer};
-    use crate::localize::config::tests::factory_spec;
+    use crate::scenario::localize::tests::factory_spec;
 
     fn quick_chain() -> Chain {
         let mut s = factory_spec();

@@ -31,14 +31,13 @@
 //! receiver noise are synthesized as OFDM subcarriers and range-compressed by has-dsp per symbol.
 
 pub mod chain;
-pub mod config;
 pub mod outputs;
 pub mod report;
 pub mod run;
 pub mod target;
 
+pub use crate::scenario::{LocalizeOverrides, LocalizeSpec};
 pub use chain::{Chain, ClutterMap, Cube, Detection, SlowTimeEca, Suppression};
-pub use config::{LocalizeOverrides, LocalizeSpec};
 pub use outputs::{DetectionCloud, RangeDopplerMap, RdFrame, RdStage};
 pub use report::{improvement_pct, FrameReport, LocalizeReport, LocalizeRunReport};
 pub use run::{run_localize, FrameResult, LocalizeResult, ModeSummary};
@@ -48,7 +47,7 @@ pub use run::{run_localize, FrameResult, LocalizeResult, ModeSummary};
 pub enum LocalizeError {
     /// A bad scenario field.
     #[error(transparent)]
-    Config(#[from] crate::imaging::ScenarioError),
+    Config(#[from] crate::scenario::ScenarioError),
     /// has-dsp refused its input.
     #[error("{what}: {source}")]
     Dsp {

@@ -12,8 +12,8 @@
 use glam::Vec3;
 use serde::Serialize;
 
-use super::config::LocalizeSpec;
 use super::run::LocalizeResult;
+use crate::scenario::LocalizeSpec;
 use crate::scene::{Object, Scene};
 
 impl LocalizeSpec {
@@ -262,7 +262,7 @@ mod tests {
     #[test]
     fn range_doppler_maps_are_the_slowest_then_the_fastest_frame_at_three_stages() {
         let r = result();
-        let spec: LocalizeSpec = crate::imaging::ImagingScenario::from_toml_str(include_str!(
+        let spec: LocalizeSpec = crate::scenario::Scenario::from_toml_str(include_str!(
             "../../../fixtures/factory.toml"
         ))
         .expect("the bundled scenario")
@@ -303,7 +303,7 @@ mod tests {
 
     #[test]
     fn the_true_buildings_are_every_object_but_the_ground() {
-        let sc = crate::imaging::ImagingScenario::from_toml_str(include_str!(
+        let sc = crate::scenario::Scenario::from_toml_str(include_str!(
             "../../../fixtures/factory.toml"
         ))
         .expect("the bundled scenario");

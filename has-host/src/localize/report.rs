@@ -10,8 +10,8 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use super::config::LocalizeSpec;
 use super::run::{LocalizeResult, ModeSummary};
+use crate::scenario::LocalizeSpec;
 
 /// Percentage by which the environment prior's √CD improves on the ECA baseline's,
 /// `100·(eca − env)/eca`; `None` when either is undefined or the baseline is zero.

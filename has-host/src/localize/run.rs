@@ -12,11 +12,11 @@ use serde::Serialize;
 use super::chain::{
     range_segment_templates, subtract_templates, Chain, ClutterMap, Detection, SlowTimeEca,
 };
-use super::config::LocalizeSpec;
 use super::{LocalizeError, Suppression};
 use crate::echo::{qpsk_symbols, visible_for, EchoConfig, EchoSynth, ScattererSet};
 use crate::material::Material;
 use crate::metrics::CloudComparison;
+use crate::scenario::LocalizeSpec;
 use crate::scene::{Object, Scene};
 
 /// Results of one frame.

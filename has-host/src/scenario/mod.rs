@@ -1,24 +1,48 @@
-//! The imaging scenario file: the scene, the radio, the base stations, the terminals' virtual
-//! apertures and the imaging parameters, in one TOML document (format in `docs/scenario.md`).
+//! The scenario file: the scene, the radio, the base stations, the terminals' virtual apertures,
+//! the imaging parameters and the experiments run on the twin, in one TOML document (format in
+//! `docs/scenario.md`). This module owns the file type ([`Scenario`]), its error
+//! ([`ScenarioError`]) and the field validators every table shares ([`TableFields`]); the
+//! pipeline stages (`imaging`, `channel_experiment`, `localize`) read it and nothing here reads
+//! them.
 //!
 //! Every table denies unknown fields, so a typo is an error naming the field; every numeric field
-//! is checked ([`ImagingScenario::validate`]) and a bad one is reported with its name and value.
+//! is checked ([`Scenario::validate`]) and a bad one is reported with its name and value.
 //! Units: lengths metres, frequencies GHz/MHz as named, angles degrees in the file (radians
 //! inside), decibels as named. A `[quick]` table may override imaging parameters for the
 //! `--quick` preset.
+//!
+//! Submodules: [`scene`] (the `[scene]` table), [`channel`] (`[channel]`), [`localize`]
+//! (`[localize]`), [`error`].
+
+pub mod channel;
+pub mod error;
+pub mod localize;
+pub mod scene;
 
 use std::path::{Path, PathBuf};
 
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use super::sensors::{PlanarArray, VirtualAperture};
-use crate::scenario::SceneSpec;
+pub use channel::{ChannelOverrides, ChannelSpec};
+pub(crate) use error::one_line_toml_error;
+pub use error::{ScenarioError, TableFields};
+pub use localize::{LocalizeOverrides, LocalizeSpec};
+pub use scene::{
+    load_scene, load_scene_objects, AxisName, BuildingSpec, CylinderSpec, DirectionName,
+    GroundSpec, MeshSpec, ObjectSpec, RoofSpec, SceneSpec, SceneSpecError,
+};
+
+use crate::sensors::{PlanarArray, VirtualAperture};
+
+/// Fields of the file's top level and its `[radar]`, `[imaging]`, … tables (each error names the
+/// table, e.g. `imaging.voxel_m`).
+const FIELDS: TableFields = TableFields::new("");
 
 /// The whole scenario file.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
-pub struct ImagingScenario {
+pub struct Scenario {
     /// Free text shown in reports.
     #[serde(default)]
     pub description: String,
@@ -39,12 +63,12 @@ pub struct ImagingScenario {
     /// Overrides of `imaging` for `--quick`.
     #[serde(default)]
     pub quick: ImagingOverrides,
-    /// `[channel]`: the channel-prediction experiment (`has-sim channel`), see `crate::prediction`.
+    /// `[channel]`: the channel-prediction experiment (`has-sim channel`), see [`channel`].
     #[serde(default)]
-    pub channel: Option<crate::prediction::ChannelSpec>,
+    pub channel: Option<ChannelSpec>,
     /// `[localize]`: the moving-target experiment (`has-sim localize`), if the scenario has one.
     #[serde(default)]
-    pub localize: Option<crate::localize::LocalizeSpec>,
+    pub localize: Option<LocalizeSpec>,
     /// Directory of the scenario file (mesh paths resolve against it).
     #[serde(skip)]
     pub base_dir: PathBuf,
@@ -76,12 +100,12 @@ pub struct RadarSpec {
 }
 
 impl RadarSpec {
-    /// The carrier in Hz (validated by [`ImagingScenario::validate`]).
+    /// The carrier in Hz (validated by [`Scenario::validate`]).
     ///
     /// # Errors
     /// [`ScenarioError::Invalid`] for a carrier that is not finite and positive.
     pub fn fc_hz_checked(&self) -> Result<f64, ScenarioError> {
-        check_positive("radar.fc_ghz", self.fc_ghz)?;
+        FIELDS.positive("radar.fc_ghz", self.fc_ghz)?;
         Ok(self.fc_ghz * 1e9)
     }
 }
@@ -123,7 +147,7 @@ pub struct ApertureSpec {
     /// Last transmit position `[x, y, z]`, metres.
     pub end: [f32; 3],
     /// Transmit positions along the track (≥ 2). Default: Nyquist for the imaging region (see
-    /// [`super::sensors::nyquist_spacing_m`]), computed by the planner.
+    /// [`crate::sensors::nyquist_spacing_m`]), computed by the planner.
     #[serde(default)]
     pub positions: Option<usize>,
 }
@@ -195,7 +219,7 @@ pub struct ImagingSpec {
     #[serde(default = "default_true")]
     pub coherence_test: bool,
     /// Drop a detected voxel whose grating-lobe alias for the pair's panel (element pitch above
-    /// λ/2: the same range and array phases, [`crate::imaging::sensors::PlanarArray::grating_aliases`])
+    /// λ/2: the same range and array phases, [`crate::sensors::PlanarArray::grating_aliases`])
     /// holds a stronger echo in the same image: the pair cannot tell the two apart, and the weaker
     /// is the lobe.
     #[serde(default = "default_true")]
@@ -216,7 +240,7 @@ pub struct ImagingSpec {
     pub nadir_guard: bool,
     /// Move each pair's detections that lie in the skirt of a stronger echo's point-spread
     /// function (below half its power, within the pair's resolution along the direction it
-    /// resolves worst) to that echo's power centroid ([`super::centroid`]).
+    /// resolves worst) to that echo's power centroid ([`crate::imaging::centroid`]).
     #[serde(default = "default_true")]
     pub skirt_centroid: bool,
     /// How the fine pass back-projects: `"exact"` (default) per element over the
@@ -252,7 +276,7 @@ pub struct ImagingSpec {
     pub ground_objects: Vec<String>,
     /// Scatterers per m² on ground objects; only inside the disc around the region's footprint
     /// that reaches `ground_margin_m` past its farthest corner
-    /// ([`ImagingScenario::scatters_as_ground`]).
+    /// ([`Scenario::scatters_as_ground`]).
     #[serde(default = "default_ground_density")]
     pub ground_density_per_m2: f64,
     /// How far past the region footprint's farthest corner the ground scatters, metres.
@@ -270,19 +294,19 @@ pub struct ImagingSpec {
     /// strongest point's (0 keeps all).
     #[serde(default = "default_fusion_min")]
     pub fusion_min_weight: f32,
-    /// Cross-pair confirmation ([`super::confirmation`]): drop a fused point that at least this
+    /// Cross-pair confirmation ([`crate::imaging::confirmation`]): drop a fused point that at least this
     /// many pairs per confirming pair see and did not detect (0 keeps every point).
     #[serde(default = "default_cross_pair_denials")]
     pub cross_pair_denials: u8,
     /// Drop fused points that lie within the vertical resolution of their pairs above the known
     /// terrain with nothing of the cloud rising above that layer around them: the terrain's own
-    /// echoes ([`super::terrain_echo`]).
+    /// echoes ([`crate::imaging::terrain_echo`]).
     #[serde(default = "default_true")]
     pub terrain_echo_test: bool,
     /// Drop fused points that a finer pair places at another height: copies of a roof (a
     /// surface crossing the vertical) within the vertical resolution of the coarse pairs that
     /// detected them, which the finer pair resolves from its own placement
-    /// ([`super::finer_height`]).
+    /// ([`crate::imaging::finer_height`]).
     #[serde(default = "default_true")]
     pub finer_height_test: bool,
     /// Which pairs are imaged when `[[pairs]]` is not given, among the base stations whose
@@ -439,55 +463,6 @@ fn default_fusion_min() -> f32 {
     0.0
 }
 
-/// Why a scenario could not be used.
-#[derive(Debug, thiserror::Error)]
-pub enum ScenarioError {
-    /// The file could not be read.
-    #[error("{path}: cannot read the file")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// The OS error.
-        source: std::io::Error,
-    },
-    /// Malformed TOML or a field that does not match the format (the message names it).
-    #[error("{path}: {msg}")]
-    Toml {
-        /// The file.
-        path: PathBuf,
-        /// The parser's message.
-        msg: String,
-    },
-    /// A field with a bad value.
-    #[error("{field}: {value} ({expected})")]
-    Invalid {
-        /// The field, e.g. `imaging.voxel_m` or `base_stations[2].position`.
-        field: String,
-        /// The value given.
-        value: String,
-        /// What was expected.
-        expected: &'static str,
-    },
-    /// A position too far from the origin for coherent imaging in f32 ([`coherent_extent_m`]).
-    #[error(
-        "{field}: {value} lies {distance_m:.0} m from the origin; coherent imaging at λ = \
-         {wavelength_m:.4} m needs coordinates within ±{limit_m:.0} m (f32 rounds a coordinate x by \
-         up to |x|·2⁻²⁴, a phase error of 2π/64 at that limit): give positions in a local site frame"
-    )]
-    FarFromOrigin {
-        /// The field.
-        field: String,
-        /// The position given.
-        value: String,
-        /// Its largest coordinate magnitude, metres.
-        distance_m: f64,
-        /// [`coherent_extent_m`] at the scenario's wavelength.
-        limit_m: f64,
-        /// The wavelength, metres.
-        wavelength_m: f64,
-    },
-}
-
 /// The largest coordinate magnitude at which f32 positions keep back-projection phases within
 /// 2π/64: rounding a coordinate `x` to f32 moves it by at most `|x|·2⁻²⁴`, a range error of as
 /// much, so `|x| ≤ 2²⁴·λ/64 = 2¹⁸·λ` (7.9 km at 10 GHz). Sites are given in a local frame.
@@ -495,52 +470,12 @@ pub fn coherent_extent_m(wavelength_m: f64) -> f64 {
     wavelength_m * (1u64 << 18) as f64
 }
 
-fn invalid(
-    field: impl Into<String>,
-    value: impl std::fmt::Debug,
-    expected: &'static str,
-) -> ScenarioError {
-    ScenarioError::Invalid {
-        field: field.into(),
-        value: format!("{value:?}"),
-        expected,
-    }
-}
-
-/// A TOML error as one line: `line N: message` (the parser's own text spans several lines).
-fn one_line_toml_error(text: &str, e: &toml::de::Error) -> String {
-    let msg = e.message().split_whitespace().collect::<Vec<_>>().join(" ");
-    match e.span() {
-        Some(span) => {
-            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-            format!("line {line}: {msg}")
-        }
-        None => msg,
-    }
-}
-
-fn check_pos3(field: String, v: [f32; 3]) -> Result<(), ScenarioError> {
-    if v.iter().all(|x| x.is_finite()) {
-        Ok(())
-    } else {
-        Err(invalid(field, v, "finite coordinates"))
-    }
-}
-
-fn check_positive(field: &str, v: f64) -> Result<(), ScenarioError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(invalid(field, v, "finite and > 0"))
-    }
-}
-
-impl ImagingScenario {
+impl Scenario {
     /// Reads and validates a scenario file.
     ///
     /// # Errors
     /// [`ScenarioError`] naming the file, field and value.
-    pub fn load(path: &Path) -> Result<ImagingScenario, ScenarioError> {
+    pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
         let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
             path: path.to_path_buf(),
             source: e,
@@ -565,9 +500,9 @@ impl ImagingScenario {
     /// Parses and validates TOML text (mesh paths resolve against `.`).
     ///
     /// # Errors
-    /// As [`ImagingScenario::load`].
-    pub fn from_toml_str(text: &str) -> Result<ImagingScenario, ScenarioError> {
-        let mut s: ImagingScenario = toml::from_str(text).map_err(|e| ScenarioError::Toml {
+    /// As [`Scenario::load`].
+    pub fn from_toml_str(text: &str) -> Result<Scenario, ScenarioError> {
+        let mut s: Scenario = toml::from_str(text).map_err(|e| ScenarioError::Toml {
             path: PathBuf::from("<string>"),
             msg: one_line_toml_error(text, &e),
         })?;
@@ -625,7 +560,7 @@ impl ImagingScenario {
     }
 
     /// Every sensor position and the region within [`coherent_extent_m`] of the origin at the
-    /// scenario's wavelength. [`super::build_world`] checks it once the carrier is known to lie
+    /// scenario's wavelength. [`crate::imaging::build_world`] checks it once the carrier is known to lie
     /// in the scene's materials' range.
     ///
     /// # Errors
@@ -659,24 +594,24 @@ impl ImagingScenario {
     /// [`ScenarioError::Invalid`].
     pub fn validate(&self) -> Result<(), ScenarioError> {
         let r = &self.radar;
-        check_positive("radar.fc_ghz", r.fc_ghz)?;
-        check_positive("radar.bandwidth_mhz", r.bandwidth_mhz)?;
+        FIELDS.positive("radar.fc_ghz", r.fc_ghz)?;
+        FIELDS.positive("radar.bandwidth_mhz", r.bandwidth_mhz)?;
         if r.bandwidth_mhz * 1e6 >= r.fc_ghz * 1e9 {
-            return Err(invalid(
+            return Err(FIELDS.invalid(
                 "radar.bandwidth_mhz",
                 r.bandwidth_mhz,
                 "below the carrier",
             ));
         }
         if !(r.subcarriers.is_power_of_two() && (64..=4096).contains(&r.subcarriers)) {
-            return Err(invalid(
+            return Err(FIELDS.invalid(
                 "radar.subcarriers",
                 r.subcarriers,
                 "a power of two, 64 … 4096",
             ));
         }
         if !matches!(r.zero_pad, 1 | 2 | 4) || r.subcarriers * r.zero_pad > 4096 {
-            return Err(invalid(
+            return Err(FIELDS.invalid(
                 "radar.zero_pad",
                 r.zero_pad,
                 "1, 2 or 4, with subcarriers·zero_pad ≤ 4096",
@@ -684,31 +619,31 @@ impl ImagingScenario {
         }
         self.window()?;
         if !r.snr_db.is_finite() {
-            return Err(invalid("radar.snr_db", r.snr_db, "finite"));
+            return Err(FIELDS.invalid("radar.snr_db", r.snr_db, "finite"));
         }
         if self.base_stations.is_empty() {
-            return Err(invalid("base_stations", "[]", "at least one base station"));
+            return Err(FIELDS.invalid("base_stations", "[]", "at least one base station"));
         }
         for (i, b) in self.base_stations.iter().enumerate() {
-            check_pos3(format!("base_stations[{i}].position"), b.position)?;
+            FIELDS.finite(format!("base_stations[{i}].position"), b.position)?;
             if !b.boresight_deg.is_finite() {
-                return Err(invalid(
+                return Err(FIELDS.invalid(
                     format!("base_stations[{i}].boresight_deg"),
                     b.boresight_deg,
                     "finite",
                 ));
             }
             if b.rows == 0 || b.cols == 0 {
-                return Err(invalid(
+                return Err(FIELDS.invalid(
                     format!("base_stations[{i}].rows/cols"),
                     (b.rows, b.cols),
                     "≥ 1",
                 ));
             }
-            check_positive(&format!("base_stations[{i}].width_m"), b.width_m as f64)?;
-            check_positive(&format!("base_stations[{i}].height_m"), b.height_m as f64)?;
+            FIELDS.positive(format!("base_stations[{i}].width_m"), b.width_m as f64)?;
+            FIELDS.positive(format!("base_stations[{i}].height_m"), b.height_m as f64)?;
             if self.base_stations[..i].iter().any(|o| o.name == b.name) {
-                return Err(invalid(
+                return Err(FIELDS.invalid(
                     format!("base_stations[{i}].name"),
                     &b.name,
                     "unique: an earlier base station has it",
@@ -716,14 +651,14 @@ impl ImagingScenario {
             }
         }
         if self.apertures.is_empty() {
-            return Err(invalid("apertures", "[]", "at least one aperture"));
+            return Err(FIELDS.invalid("apertures", "[]", "at least one aperture"));
         }
         for (i, a) in self.apertures.iter().enumerate() {
-            check_pos3(format!("apertures[{i}].start"), a.start)?;
-            check_pos3(format!("apertures[{i}].end"), a.end)?;
+            FIELDS.finite(format!("apertures[{i}].start"), a.start)?;
+            FIELDS.finite(format!("apertures[{i}].end"), a.end)?;
             let length = (Vec3::from(a.end) - Vec3::from(a.start)).length() as f64;
             if length < self.wavelength_m() {
-                return Err(invalid(
+                return Err(FIELDS.invalid(
                     format!("apertures[{i}].end"),
                     a.end,
                     "at least a wavelength from start: a virtual aperture of no length resolves \
@@ -731,7 +666,7 @@ impl ImagingScenario {
                 ));
             }
             if self.apertures[..i].iter().any(|o| o.name == a.name) {
-                return Err(invalid(
+                return Err(FIELDS.invalid(
                     format!("apertures[{i}].name"),
                     &a.name,
                     "unique: an earlier aperture has it",
@@ -739,20 +674,20 @@ impl ImagingScenario {
             }
             if let Some(n) = a.positions {
                 if n < 2 {
-                    return Err(invalid(format!("apertures[{i}].positions"), n, "≥ 2"));
+                    return Err(FIELDS.invalid(format!("apertures[{i}].positions"), n, "≥ 2"));
                 }
             }
         }
         for (i, p) in self.pairs.iter().enumerate() {
             if !self.base_stations.iter().any(|b| b.name == p.bs) {
-                return Err(invalid(
+                return Err(FIELDS.invalid(
                     format!("pairs[{i}].bs"),
                     &p.bs,
                     "the name of a base station",
                 ));
             }
             if !self.apertures.iter().any(|a| a.name == p.aperture) {
-                return Err(invalid(
+                return Err(FIELDS.invalid(
                     format!("pairs[{i}].aperture"),
                     &p.aperture,
                     "the name of an aperture",
@@ -760,11 +695,11 @@ impl ImagingScenario {
             }
         }
         let im = &self.imaging;
-        check_pos3("imaging.region_min".into(), im.region_min)?;
-        check_pos3("imaging.region_max".into(), im.region_max)?;
+        FIELDS.finite("imaging.region_min", im.region_min)?;
+        FIELDS.finite("imaging.region_max", im.region_max)?;
         for k in 0..3 {
             if im.region_max[k] <= im.region_min[k] {
-                return Err(invalid(
+                return Err(FIELDS.invalid(
                     "imaging.region_max",
                     im.region_max,
                     "above region_min on every axis",
@@ -773,7 +708,7 @@ impl ImagingScenario {
         }
         if let Some(poly) = &im.region_polygon {
             if poly.len() < 3 {
-                return Err(invalid(
+                return Err(FIELDS.invalid(
                     "imaging.region_polygon",
                     poly.len(),
                     "at least 3 vertices",
@@ -785,7 +720,7 @@ impl ImagingScenario {
                         v[k] >= im.region_min[k] - 1e-3 && v[k] <= im.region_max[k] + 1e-3
                     });
                 if !inside {
-                    return Err(invalid(
+                    return Err(FIELDS.invalid(
                         format!("imaging.region_polygon[{i}]"),
                         v,
                         "finite and inside region_min … region_max",
@@ -793,7 +728,7 @@ impl ImagingScenario {
                 }
             }
             if polygon_area(poly).abs() < 1e-6 {
-                return Err(invalid(
+                return Err(FIELDS.invalid(
                     "imaging.region_polygon",
                     "zero area",
                     "a polygon with area",
@@ -811,18 +746,18 @@ impl ImagingScenario {
             ),
         ] {
             if !(v > 0.0 && v < 1.0) {
-                return Err(invalid(f, v, "a probability in (0, 1)"));
+                return Err(FIELDS.invalid(f, v, "a probability in (0, 1)"));
             }
         }
-        check_positive("imaging.false_alarms_per_image", im.false_alarms_per_image)?;
-        check_positive("imaging.voxel_m", im.voxel_m as f64)?;
-        check_positive("imaging.coarse_voxel_m", im.coarse_voxel_m as f64)?;
+        FIELDS.positive("imaging.false_alarms_per_image", im.false_alarms_per_image)?;
+        FIELDS.positive("imaging.voxel_m", im.voxel_m as f64)?;
+        FIELDS.positive("imaging.coarse_voxel_m", im.coarse_voxel_m as f64)?;
         for (f, v) in [
             ("imaging.coarse_threshold_db", im.coarse_threshold_db),
             ("imaging.threshold_db", im.threshold_db),
         ] {
             if !(v.is_finite() && v <= 0.0) {
-                return Err(invalid(f, v, "finite and ≤ 0 dB"));
+                return Err(FIELDS.invalid(f, v, "finite and ≤ 0 dB"));
             }
         }
         for (f, v) in [
@@ -831,12 +766,12 @@ impl ImagingScenario {
             ("imaging.coarse_step", im.coarse_step),
         ] {
             if v == 0 {
-                return Err(invalid(f, v, "≥ 1"));
+                return Err(FIELDS.invalid(f, v, "≥ 1"));
             }
         }
         if im.backprojection == Backprojection::Factorised {
             if !(1..=4096).contains(&im.beam_oversample) {
-                return Err(invalid(
+                return Err(FIELDS.invalid(
                     "imaging.beam_oversample",
                     im.beam_oversample,
                     "in 1..=4096",
@@ -847,7 +782,7 @@ impl ImagingScenario {
                     || !b.rows.is_multiple_of(im.subarray)
                     || !b.cols.is_multiple_of(im.subarray)
                 {
-                    return Err(invalid(
+                    return Err(FIELDS.invalid(
                         format!(
                             "imaging.subarray (base_stations[{i}] is {}×{})",
                             b.rows, b.cols
@@ -858,39 +793,35 @@ impl ImagingScenario {
                 }
             }
         }
-        check_positive(
+        FIELDS.positive(
             "imaging.scatterer_density_per_m2",
             im.scatterer_density_per_m2,
         )?;
-        check_positive("imaging.ground_density_per_m2", im.ground_density_per_m2)?;
-        check_positive("imaging.truth_density_per_m2", im.truth_density_per_m2)?;
+        FIELDS.positive("imaging.ground_density_per_m2", im.ground_density_per_m2)?;
+        FIELDS.positive("imaging.truth_density_per_m2", im.truth_density_per_m2)?;
         if !(im.ground_margin_m.is_finite() && im.ground_margin_m >= 0.0) {
-            return Err(invalid(
+            return Err(FIELDS.invalid(
                 "imaging.ground_margin_m",
                 im.ground_margin_m,
                 "finite and ≥ 0",
             ));
         }
         if !(im.visibility_shift_m.is_finite() && im.visibility_shift_m >= 0.0) {
-            return Err(invalid(
+            return Err(FIELDS.invalid(
                 "imaging.visibility_shift_m",
                 im.visibility_shift_m,
                 "finite and ≥ 0",
             ));
         }
         if !(0.0..=1.0).contains(&im.fusion_min_weight) {
-            return Err(invalid(
+            return Err(FIELDS.invalid(
                 "imaging.fusion_min_weight",
                 im.fusion_min_weight,
                 "in [0, 1]",
             ));
         }
         if im.truth_objects.is_empty() {
-            return Err(invalid(
-                "imaging.truth_objects",
-                "[]",
-                "at least one object name",
-            ));
+            return Err(FIELDS.invalid("imaging.truth_objects", "[]", "at least one object name"));
         }
         Ok(())
     }
@@ -908,7 +839,7 @@ impl ImagingScenario {
                 nbar: 4,
                 sll_db: -35.0,
             }),
-            _ => Err(invalid(
+            _ => Err(FIELDS.invalid(
                 "radar.window",
                 &self.radar.window,
                 "rectangular, hann or taylor",
@@ -925,7 +856,9 @@ impl ImagingScenario {
     pub fn range_resolution_m(&self) -> Result<f64, ScenarioError> {
         has_dsp::ofdm::range_bin_spacing_m(self.radar.bandwidth_mhz * 1e6, 1)
             .map(|d| 0.5 * d)
-            .map_err(|_| invalid("radar.bandwidth_mhz", self.radar.bandwidth_mhz, "positive"))
+            .map_err(|_| {
+                FIELDS.invalid("radar.bandwidth_mhz", self.radar.bandwidth_mhz, "positive")
+            })
     }
 
     /// Carrier wavelength, metres.
@@ -1073,8 +1006,8 @@ fn segments_cross(a: [f32; 2], b: [f32; 2], c: [f32; 2], d: [f32; 2]) -> bool {
 mod tests {
     use super::*;
 
-    fn factory() -> ImagingScenario {
-        ImagingScenario::from_toml_str(include_str!("../../../fixtures/factory.toml")).unwrap()
+    fn factory() -> Scenario {
+        Scenario::from_toml_str(include_str!("../../../fixtures/factory.toml")).unwrap()
     }
 
     #[test]

@@ -12,9 +12,11 @@
 use glam::DVec3;
 use serde::{Deserialize, Serialize};
 
-use crate::imaging::ScenarioError;
-use crate::material::Material;
-use crate::scene::{Object, Scene};
+use super::{ScenarioError, TableFields};
+use crate::scene::Scene;
+
+/// Fields of the `[channel]` table named in this module's errors.
+const CHANNEL: TableFields = TableFields::new("channel");
 
 /// `[channel]`: one BS, the UEs, the thresholds, the tracer and the codebook.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -132,22 +134,6 @@ fn default_one() -> f64 {
     1.0
 }
 
-fn invalid(field: &str, value: impl std::fmt::Debug, expected: &'static str) -> ScenarioError {
-    ScenarioError::Invalid {
-        field: format!("channel.{field}"),
-        value: format!("{value:?}"),
-        expected,
-    }
-}
-
-fn positive(field: &str, v: f64) -> Result<(), ScenarioError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(invalid(field, v, "finite and > 0"))
-    }
-}
-
 impl ChannelSpec {
     /// Replaces fields by the `[channel.quick]` overrides.
     pub fn apply_quick(&mut self) {
@@ -169,72 +155,68 @@ impl ChannelSpec {
     /// [`ScenarioError::Invalid`].
     pub fn validate(&self) -> Result<(), ScenarioError> {
         if !self.bs_position.iter().all(|x| x.is_finite()) {
-            return Err(invalid(
-                "bs_position",
-                self.bs_position,
-                "finite coordinates",
-            ));
+            return Err(CHANNEL.invalid("bs_position", self.bs_position, "finite coordinates"));
         }
         if !self.bs_boresight_deg.is_finite() {
-            return Err(invalid("bs_boresight_deg", self.bs_boresight_deg, "finite"));
+            return Err(CHANNEL.invalid("bs_boresight_deg", self.bs_boresight_deg, "finite"));
         }
         if self.ues == 0 {
-            return Err(invalid("ues", self.ues, "at least 1"));
+            return Err(CHANNEL.invalid("ues", self.ues, "at least 1"));
         }
         if !(self.ue_height_m.is_finite() && self.ue_height_m >= 0.0) {
-            return Err(invalid("ue_height_m", self.ue_height_m, "finite and >= 0"));
+            return Err(CHANNEL.invalid("ue_height_m", self.ue_height_m, "finite and >= 0"));
         }
         for (f, v) in [
             ("ue_region_min", self.ue_region_min),
             ("ue_region_max", self.ue_region_max),
         ] {
             if !v.iter().all(|x| x.is_finite()) {
-                return Err(invalid(f, v, "finite coordinates"));
+                return Err(CHANNEL.invalid(f, v, "finite coordinates"));
             }
         }
         if (0..2).any(|k| self.ue_region_max[k] <= self.ue_region_min[k]) {
-            return Err(invalid(
+            return Err(CHANNEL.invalid(
                 "ue_region_max",
                 self.ue_region_max,
                 "above ue_region_min on both axes",
             ));
         }
-        positive("max_loss_db", self.max_loss_db)?;
+        CHANNEL.positive("max_loss_db", self.max_loss_db)?;
         if !(self.window_db.is_finite() && self.window_db >= 0.0) {
-            return Err(invalid("window_db", self.window_db, "finite and >= 0"));
+            return Err(CHANNEL.invalid("window_db", self.window_db, "finite and >= 0"));
         }
         if self.max_order > crate::paths::MAX_ORDER {
-            return Err(invalid("max_order", self.max_order, "at most 8"));
+            return Err(CHANNEL.invalid("max_order", self.max_order, "at most 8"));
         }
         if self.sbr_rays == 0 {
-            return Err(invalid("sbr_rays", self.sbr_rays, "at least 1"));
+            return Err(CHANNEL.invalid("sbr_rays", self.sbr_rays, "at least 1"));
         }
         for (f, v) in [
             ("facet_angle_deg", self.facet_angle_deg),
             ("facet_dist_m", self.facet_dist_m),
         ] {
             if !(v.is_finite() && v >= 0.0) {
-                return Err(invalid(f, v, "finite and >= 0"));
+                return Err(CHANNEL.invalid(f, v, "finite and >= 0"));
             }
         }
         if self.codebook_rows == 0 {
-            return Err(invalid("codebook_rows", self.codebook_rows, "at least 1"));
+            return Err(CHANNEL.invalid("codebook_rows", self.codebook_rows, "at least 1"));
         }
         if self.codebook_cols == 0 {
-            return Err(invalid("codebook_cols", self.codebook_cols, "at least 1"));
+            return Err(CHANNEL.invalid("codebook_cols", self.codebook_cols, "at least 1"));
         }
-        positive("codebook_spacing_wl", self.codebook_spacing_wl)?;
-        positive("match_delay_ns", self.match_delay_ns)?;
-        positive("match_angle_deg", self.match_angle_deg)?;
+        CHANNEL.positive("codebook_spacing_wl", self.codebook_spacing_wl)?;
+        CHANNEL.positive("match_delay_ns", self.match_delay_ns)?;
+        CHANNEL.positive("match_angle_deg", self.match_angle_deg)?;
         let q = &self.quick;
         if q.ues == Some(0) {
-            return Err(invalid("quick.ues", 0, "at least 1"));
+            return Err(CHANNEL.invalid("quick.ues", 0, "at least 1"));
         }
         if let Some(o) = q.max_order.filter(|&o| o > crate::paths::MAX_ORDER) {
-            return Err(invalid("quick.max_order", o, "at most 8"));
+            return Err(CHANNEL.invalid("quick.max_order", o, "at most 8"));
         }
         if q.sbr_rays == Some(0) {
-            return Err(invalid("quick.sbr_rays", 0, "at least 1"));
+            return Err(CHANNEL.invalid("quick.sbr_rays", 0, "at least 1"));
         }
         Ok(())
     }
@@ -285,7 +267,7 @@ impl ChannelSpec {
         let (lo, hi) = (self.ue_region_min, self.ue_region_max);
         let out = truth.uncovered_positions(lo, hi, self.ue_height_m, self.ues, self.seed);
         if out.len() < self.ues {
-            return Err(invalid(
+            return Err(CHANNEL.invalid(
                 "ue_region_min",
                 (lo, hi),
                 "a region with room for the UEs outside buildings",
@@ -294,143 +276,10 @@ impl ChannelSpec {
         Ok(out)
     }
 }
-
-/// `objects` with every material set to `material`.
-pub fn with_material(mut objects: Vec<Object>, material: Material) -> Vec<Object> {
-    for o in &mut objects {
-        o.material = material;
-    }
-    objects
-}
-
-/// The twin's objects: the reconstructed `mesh` objects plus the objects of `truth` named in
-/// `known` (renamed `known/<name>` so they never clash with the mesh's names), all `material`.
-///
-/// # Errors
-/// [`ScenarioError::Invalid`] naming `channel.known_objects` for a name that is not an object of
-/// `truth`.
-pub fn twin_objects(
-    mesh: Vec<Object>,
-    truth: &[Object],
-    known: &[String],
-    material: Material,
-) -> Result<Vec<Object>, ScenarioError> {
-    let mut out = mesh;
-    for name in known {
-        let Some(o) = truth.iter().find(|o| &o.name == name) else {
-            return Err(invalid(
-                "known_objects",
-                name,
-                "the name of an object of the scene",
-            ));
-        };
-        let mut o = o.clone();
-        o.name = format!("known/{}", o.name);
-        out.push(o);
-    }
-    Ok(with_material(out, material))
-}
-
-/// The comparison of one UE's link on the two scenes.
-#[derive(Clone, Debug, PartialEq)]
-pub struct UeOutcome {
-    /// Gain of the strongest true path, dB (`None`: no true path).
-    pub strongest_true_db: Option<f64>,
-    /// Kept for the statistics: the strongest true path loses less than `max_loss_db`.
-    pub kept: bool,
-    /// True paths within the window of the strongest true path.
-    pub true_paths: Vec<crate::multipath::PathParams>,
-    /// Twin paths within the window of the strongest twin path.
-    pub twin_paths: Vec<crate::multipath::PathParams>,
-    /// The Chamfer matching of the two windowed sets (empty when not kept or no twin path).
-    pub matches: crate::multipath::ChamferMatch,
-    /// Beam selection (only for kept UEs).
-    pub beam: Option<BeamOutcome>,
-}
-
-/// Beam selection of one UE: the beam picked from the twin's paths judged on the true channel.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct BeamOutcome {
-    /// Best beam on the true channel (all true paths).
-    pub true_best: usize,
-    /// Its gain on the true channel, linear power.
-    pub true_best_gain: f64,
-    /// Beam picked from the twin's paths (`None`: the twin has no path).
-    pub predicted: Option<usize>,
-    /// The true channel's gain on the predicted beam, linear power (0 without a prediction).
-    pub predicted_gain_on_true: f64,
-}
-
-impl BeamOutcome {
-    /// True if the predicted beam is the true best beam.
-    pub fn agrees(&self) -> bool {
-        self.predicted == Some(self.true_best)
-    }
-
-    /// Gain lost on the true channel by using the predicted beam instead of the best, dB (≥ 0;
-    /// infinite without a prediction).
-    pub fn loss_db(&self) -> f64 {
-        if self.predicted.is_none() || self.predicted_gain_on_true <= 0.0 {
-            return f64::INFINITY;
-        }
-        10.0 * (self.true_best_gain / self.predicted_gain_on_true).log10()
-    }
-}
-
-/// Compares one UE's paths on the true scene and on the twin (see [`crate::multipath`] and
-/// [`crate::beam`]): kept if the strongest true path loses less than `spec.max_loss_db`; each
-/// set windowed at `spec.window_db` below its own strongest path; Chamfer matching of the two
-/// windowed sets; beam selection from all paths of each scene.
-///
-/// # Errors
-/// A bad window or matching scale ([`crate::multipath::MultipathError`]).
-pub fn compare_ue(
-    spec: &ChannelSpec,
-    codebook: &crate::beam::DftCodebook,
-    truth: &[crate::paths::Path],
-    twin: &[crate::paths::Path],
-) -> Result<UeOutcome, crate::multipath::MultipathError> {
-    use crate::beam::Ray;
-    use crate::multipath::{chamfer_match, strongest_db, within_window, ChamferMatch, PathParams};
-    let tp: Vec<PathParams> = truth.iter().map(PathParams::from).collect();
-    let wp: Vec<PathParams> = twin.iter().map(PathParams::from).collect();
-    let strongest_true_db = strongest_db(&tp);
-    let kept = strongest_true_db.is_some_and(|g| -g < spec.max_loss_db);
-    let true_paths = within_window(&tp, spec.window_db)?;
-    let twin_paths = within_window(&wp, spec.window_db)?;
-    let mut out = UeOutcome {
-        strongest_true_db,
-        kept,
-        true_paths,
-        twin_paths,
-        matches: ChamferMatch {
-            forward: Vec::new(),
-            backward: Vec::new(),
-        },
-        beam: None,
-    };
-    if !kept {
-        return Ok(out);
-    }
-    out.matches = chamfer_match(&out.true_paths, &out.twin_paths, &spec.match_scale())?;
-    let true_rays: Vec<Ray> = truth.iter().map(Ray::from).collect();
-    let twin_rays: Vec<Ray> = twin.iter().map(Ray::from).collect();
-    let gains = codebook.beam_gains(&true_rays);
-    if let Some((true_best, true_best_gain)) = crate::beam::best_of(&gains) {
-        let predicted = codebook.best_beam(&twin_rays).map(|(b, _)| b);
-        out.beam = Some(BeamOutcome {
-            true_best,
-            true_best_gain,
-            predicted,
-            predicted_gain_on_true: predicted.map_or(0.0, |b| gains[b]),
-        });
-    }
-    Ok(out)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::material::Material;
     use crate::shapes;
     use glam::Vec3;
 
@@ -556,106 +405,5 @@ mod tests {
         .unwrap_err()
         .to_string();
         assert!(e.contains("window"), "{e}");
-    }
-
-    #[test]
-    fn twin_adds_known_objects_all_concrete() {
-        let scene = factory_scene();
-        let mesh = vec![Object {
-            name: "mesh".into(),
-            material: Material::Glass,
-            triangles: vec![[Vec3::ZERO, Vec3::X, Vec3::Y]],
-        }];
-        let t = twin_objects(
-            mesh.clone(),
-            &scene.objects,
-            &["yard".into()],
-            Material::Concrete,
-        )
-        .unwrap();
-        let names: Vec<&str> = t.iter().map(|o| o.name.as_str()).collect();
-        assert_eq!(names, ["mesh", "known/yard"]);
-        assert!(t.iter().all(|o| o.material == Material::Concrete));
-        let e = twin_objects(mesh, &scene.objects, &["road".into()], Material::Concrete)
-            .unwrap_err()
-            .to_string();
-        assert!(e.starts_with("channel.known_objects: \"road\""), "{e}");
-    }
-
-    fn path(
-        delay_ns: f64,
-        gain_db: f64,
-        aod_deg: f64,
-        zod_deg: f64,
-        reflections: &[u32],
-    ) -> crate::paths::Path {
-        use crate::paths::Interaction;
-        let amp = 10f64.powf(gain_db / 20.0);
-        let interactions = if reflections.is_empty() {
-            vec![Interaction::Los]
-        } else {
-            reflections
-                .iter()
-                .map(|&object| Interaction::Reflection {
-                    object,
-                    facet: 0,
-                    point: DVec3::ZERO,
-                })
-                .collect()
-        };
-        crate::paths::Path {
-            delay_s: delay_ns * 1e-9,
-            length_m: delay_ns * 1e-9 * crate::C_M_PER_S,
-            a: num_complex::Complex64::new(amp, 0.0),
-            jones: [[num_complex::Complex64::new(0.0, 0.0); 2]; 2],
-            aod: aod_deg.to_radians(),
-            zod: zod_deg.to_radians(),
-            aoa: (aod_deg + 180.0).to_radians(),
-            zoa: (180.0 - zod_deg).to_radians(),
-            interactions,
-        }
-    }
-
-    #[test]
-    fn identical_twin_has_zero_errors_and_agreeing_beam() {
-        let s = spec();
-        let cb =
-            crate::beam::DftCodebook::new(32, 32, 0.5, s.bs_boresight_deg.to_radians()).unwrap();
-        let truth = [
-            path(200.0, -80.0, 40.0, 95.0, &[]),
-            path(203.0, -86.0, 40.0, 100.0, &[0]),
-            path(260.0, -99.0, 70.0, 94.0, &[1]),
-            // 25 dB below the strongest: outside the 20 dB window.
-            path(300.0, -105.0, 10.0, 93.0, &[1, 0]),
-        ];
-        let o = compare_ue(&s, &cb, &truth, &truth).unwrap();
-        assert!(o.kept);
-        assert_eq!(o.strongest_true_db, Some(-80.0));
-        assert_eq!(o.true_paths.len(), 3);
-        assert_eq!(o.true_paths[2].objects(), &[1]);
-        assert_eq!(o.matches.forward.len(), 3);
-        assert_eq!(o.matches.backward.len(), 3);
-        assert!(o.matches.all().all(|m| m.distance == 0.0 && m.from == m.to));
-        let b = o.beam.unwrap();
-        assert!(b.agrees());
-        assert_eq!(b.loss_db(), 0.0);
-    }
-
-    #[test]
-    fn weak_ue_is_dropped_and_empty_twin_loses_the_beam() {
-        let s = spec();
-        let cb = crate::beam::DftCodebook::new(32, 32, 0.5, 0.0).unwrap();
-        // Strongest path loses exactly 110 dB: not "< 110 dB", dropped.
-        let weak = [path(500.0, -110.0, 40.0, 95.0, &[])];
-        let o = compare_ue(&s, &cb, &weak, &weak).unwrap();
-        assert!(!o.kept && o.beam.is_none() && o.matches.forward.is_empty());
-        let o = compare_ue(&s, &cb, &[], &[]).unwrap();
-        assert!(!o.kept && o.strongest_true_db.is_none());
-        let ok = [path(500.0, -109.9, 40.0, 95.0, &[])];
-        let o = compare_ue(&s, &cb, &ok, &[]).unwrap();
-        assert!(o.kept && o.matches.forward.is_empty() && o.twin_paths.is_empty());
-        let b = o.beam.unwrap();
-        assert!(!b.agrees() && b.predicted.is_none());
-        assert_eq!(b.loss_db(), f64::INFINITY);
     }
 }

@@ -9,8 +9,12 @@
 use glam::Vec3;
 use serde::{Deserialize, Serialize};
 
-use crate::imaging::{PlanarArray, ScenarioError};
+use super::{ScenarioError, TableFields};
 use crate::material::Material;
+use crate::sensors::PlanarArray;
+
+/// Fields of the `[localize]` table named in this module's errors.
+const LOCALIZE: TableFields = TableFields::new("localize");
 
 /// `[localize]`: everything the moving-target experiment needs besides the scene.
 #[derive(Clone, Debug, Serialize, Deserialize)]
@@ -173,38 +177,6 @@ fn d_metal() -> String {
     "metal".into()
 }
 
-fn bad(field: &str, value: impl std::fmt::Debug, expected: &'static str) -> ScenarioError {
-    ScenarioError::Invalid {
-        field: format!("localize.{field}"),
-        value: format!("{value:?}"),
-        expected,
-    }
-}
-
-fn pos(field: &str, v: f64) -> Result<(), ScenarioError> {
-    if v.is_finite() && v > 0.0 {
-        Ok(())
-    } else {
-        Err(bad(field, v, "finite and > 0"))
-    }
-}
-
-fn finite3(field: &str, v: [f32; 3]) -> Result<(), ScenarioError> {
-    if v.iter().all(|x| x.is_finite()) {
-        Ok(())
-    } else {
-        Err(bad(field, v, "finite coordinates"))
-    }
-}
-
-fn pow2_in(field: &str, v: usize, lo: usize, hi: usize) -> Result<(), ScenarioError> {
-    if v.is_power_of_two() && (lo..=hi).contains(&v) {
-        Ok(())
-    } else {
-        Err(bad(field, v, "a power of two in the documented range"))
-    }
-}
-
 impl LocalizeSpec {
     /// Applies the `[localize.quick]` overrides.
     pub fn apply_quick(&mut self) {
@@ -230,28 +202,24 @@ impl LocalizeSpec {
     /// # Errors
     /// [`ScenarioError::Invalid`] with the field `localize.<name>`.
     pub fn validate(&self) -> Result<(), ScenarioError> {
-        finite3("position", self.position)?;
+        LOCALIZE.finite("position", self.position)?;
         if !self.boresight_deg.is_finite() {
-            return Err(bad("boresight_deg", self.boresight_deg, "finite"));
+            return Err(LOCALIZE.invalid("boresight_deg", self.boresight_deg, "finite"));
         }
         for (f, v) in [("rows", self.rows), ("cols", self.cols)] {
             if !(2..=64).contains(&v) {
-                return Err(bad(f, v, "2 … 64"));
+                return Err(LOCALIZE.invalid(f, v, "2 … 64"));
             }
         }
-        pos("spacing_wavelengths", self.spacing_wavelengths as f64)?;
-        pos("fc_ghz", self.fc_ghz)?;
-        pos("bandwidth_mhz", self.bandwidth_mhz)?;
+        LOCALIZE.positive("spacing_wavelengths", self.spacing_wavelengths as f64)?;
+        LOCALIZE.positive("fc_ghz", self.fc_ghz)?;
+        LOCALIZE.positive("bandwidth_mhz", self.bandwidth_mhz)?;
         if self.bandwidth_mhz * 1e6 >= self.fc_ghz * 1e9 {
-            return Err(bad(
-                "bandwidth_mhz",
-                self.bandwidth_mhz,
-                "below the carrier",
-            ));
+            return Err(LOCALIZE.invalid("bandwidth_mhz", self.bandwidth_mhz, "below the carrier"));
         }
-        pow2_in("subcarriers", self.subcarriers, 64, 2048)?;
+        LOCALIZE.pow2_in("subcarriers", self.subcarriers, 64, 2048)?;
         if !matches!(self.zero_pad, 1 | 2 | 4) || self.subcarriers * self.zero_pad > 4096 {
-            return Err(bad(
+            return Err(LOCALIZE.invalid(
                 "zero_pad",
                 self.zero_pad,
                 "1, 2 or 4 with subcarriers · zero_pad ≤ 4096",
@@ -259,11 +227,11 @@ impl LocalizeSpec {
         }
         self.window()?;
         if !(8..=64).contains(&self.symbols) {
-            return Err(bad("symbols", self.symbols, "8 … 64"));
+            return Err(LOCALIZE.invalid("symbols", self.symbols, "8 … 64"));
         }
-        pos("symbol_interval_ms", self.symbol_interval_ms)?;
+        LOCALIZE.positive("symbol_interval_ms", self.symbol_interval_ms)?;
         if self.frames < 2 {
-            return Err(bad("frames", self.frames, "≥ 2"));
+            return Err(LOCALIZE.invalid("frames", self.frames, "≥ 2"));
         }
         for (f, v) in [
             ("tx_power_dbm", self.tx_power_dbm),
@@ -272,69 +240,69 @@ impl LocalizeSpec {
             ("clutter_margin_db", self.clutter_margin_db),
         ] {
             if !v.is_finite() {
-                return Err(bad(f, v, "finite"));
+                return Err(LOCALIZE.invalid(f, v, "finite"));
             }
         }
-        pos("target_radius_m", self.target_radius_m as f64)?;
-        pos("target_height_m", self.target_height_m as f64)?;
-        finite3("track_start", self.track_start)?;
-        finite3("track_end", self.track_end)?;
+        LOCALIZE.positive("target_radius_m", self.target_radius_m as f64)?;
+        LOCALIZE.positive("target_height_m", self.target_height_m as f64)?;
+        LOCALIZE.finite("track_start", self.track_start)?;
+        LOCALIZE.finite("track_end", self.track_end)?;
         if Vec3::from(self.track_start).distance(Vec3::from(self.track_end)) <= 0.0 {
-            return Err(bad(
+            return Err(LOCALIZE.invalid(
                 "track_end",
                 self.track_end,
                 "different from track_start",
             ));
         }
-        pos("target_speed_mps", self.target_speed_mps as f64)?;
+        LOCALIZE.positive("target_speed_mps", self.target_speed_mps as f64)?;
         self.target_material()?;
-        pos("target_density_per_m2", self.target_density_per_m2)?;
-        pos("building_density_per_m2", self.building_density_per_m2)?;
-        pos("ground_density_per_m2", self.ground_density_per_m2)?;
-        pos("twin_density_per_m2", self.twin_density_per_m2)?;
-        pos("clutter_range_m", self.clutter_range_m as f64)?;
-        pos("range_min_m", self.range_min_m as f64)?;
+        LOCALIZE.positive("target_density_per_m2", self.target_density_per_m2)?;
+        LOCALIZE.positive("building_density_per_m2", self.building_density_per_m2)?;
+        LOCALIZE.positive("ground_density_per_m2", self.ground_density_per_m2)?;
+        LOCALIZE.positive("twin_density_per_m2", self.twin_density_per_m2)?;
+        LOCALIZE.positive("clutter_range_m", self.clutter_range_m as f64)?;
+        LOCALIZE.positive("range_min_m", self.range_min_m as f64)?;
         if !(self.range_max_m.is_finite() && self.range_max_m > self.range_min_m) {
-            return Err(bad("range_max_m", self.range_max_m, "above range_min_m"));
+            return Err(LOCALIZE.invalid("range_max_m", self.range_max_m, "above range_min_m"));
         }
         if !(self.fov_azimuth_deg > 0.0 && self.fov_azimuth_deg < 90.0) {
-            return Err(bad("fov_azimuth_deg", self.fov_azimuth_deg, "in (0, 90)"));
+            return Err(LOCALIZE.invalid("fov_azimuth_deg", self.fov_azimuth_deg, "in (0, 90)"));
         }
         let [lo, hi] = self.fov_elevation_deg;
         if !(lo.is_finite() && hi.is_finite() && lo < hi && lo > -90.0 && hi < 90.0) {
-            return Err(bad(
+            return Err(LOCALIZE.invalid(
                 "fov_elevation_deg",
                 self.fov_elevation_deg,
                 "low < high within (−90, 90)",
             ));
         }
-        pow2_in("angle_fft", self.angle_fft, 64, 256)?;
+        LOCALIZE.pow2_in("angle_fft", self.angle_fft, 64, 256)?;
         if self.angle_fft < self.rows.max(self.cols) {
-            return Err(bad("angle_fft", self.angle_fft, "≥ rows and cols"));
+            return Err(LOCALIZE.invalid("angle_fft", self.angle_fft, "≥ rows and cols"));
         }
-        pow2_in("doppler_fft", self.doppler_fft, 64, 1024)?;
+        LOCALIZE.pow2_in("doppler_fft", self.doppler_fft, 64, 1024)?;
         if self.doppler_fft < self.symbols {
-            return Err(bad("doppler_fft", self.doppler_fft, "≥ symbols"));
+            return Err(LOCALIZE.invalid("doppler_fft", self.doppler_fft, "≥ symbols"));
         }
         if self.eca_batch < 2 || !self.symbols.is_multiple_of(self.eca_batch) {
-            return Err(bad("eca_batch", self.eca_batch, "≥ 2 and dividing symbols"));
+            return Err(LOCALIZE.invalid("eca_batch", self.eca_batch, "≥ 2 and dividing symbols"));
         }
         if self.eca_extra > self.symbols {
-            return Err(bad("eca_extra", self.eca_extra, "≤ symbols"));
+            return Err(LOCALIZE.invalid("eca_extra", self.eca_extra, "≤ symbols"));
         }
         if !(1..=has_dsp::cfar::MAX_CFAR_TRAIN).contains(&self.cfar_train) {
-            return Err(bad("cfar_train", self.cfar_train, "1 … 64"));
+            return Err(LOCALIZE.invalid("cfar_train", self.cfar_train, "1 … 64"));
         }
         if !(self.cfar_pfa > 0.0 && self.cfar_pfa < 1.0) {
-            return Err(bad("cfar_pfa", self.cfar_pfa, "in (0, 1)"));
+            return Err(LOCALIZE.invalid("cfar_pfa", self.cfar_pfa, "in (0, 1)"));
         }
-        pos("extent_db", self.extent_db as f64)?;
-        pos("false_alarm_gate_m", self.false_alarm_gate_m as f64)?;
+        LOCALIZE.positive("extent_db", self.extent_db as f64)?;
+        LOCALIZE.positive("false_alarm_gate_m", self.false_alarm_gate_m as f64)?;
         if !self.twin_ground_z.is_finite() {
-            return Err(bad("twin_ground_z", self.twin_ground_z, "finite"));
+            return Err(LOCALIZE.invalid("twin_ground_z", self.twin_ground_z, "finite"));
         }
         if !matches!(self.templates, 1 | 2 | 4 | 8 | 16) {
-            return Err(bad("templates", self.templates, "1, 2, 4, 8 or 16"));
+            return Err(LOCALIZE.invalid("templates", self.templates, "1, 2, 4, 8 or 16"));
         }
         Ok(())
     }
@@ -352,7 +320,7 @@ impl LocalizeSpec {
                 nbar: 4,
                 sll_db: -35.0,
             }),
-            _ => Err(bad("window", &self.window, "rectangular, hann or taylor")),
+            _ => Err(LOCALIZE.invalid("window", &self.window, "rectangular, hann or taylor")),
         }
     }
 
@@ -362,7 +330,7 @@ impl LocalizeSpec {
     /// [`ScenarioError::Invalid`] (`localize.target_material`) for an unknown name.
     pub fn target_material(&self) -> Result<Material, ScenarioError> {
         Material::from_name(&self.target_material).ok_or_else(|| {
-            bad(
+            LOCALIZE.invalid(
                 "target_material",
                 &self.target_material,
                 "an ITU-R P.2040 material name (has-sim materials)",
@@ -429,10 +397,10 @@ impl LocalizeSpec {
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
-    use crate::imaging::ImagingScenario;
+    use crate::scenario::Scenario;
 
     pub(crate) fn factory_spec() -> LocalizeSpec {
-        ImagingScenario::from_toml_str(include_str!("../../../fixtures/factory.toml"))
+        Scenario::from_toml_str(include_str!("../../../fixtures/factory.toml"))
             .expect("bundled scenario parses")
             .localize
             .expect("bundled scenario has [localize]")
@@ -498,9 +466,7 @@ pub(crate) mod tests {
     fn unknown_fields_are_rejected() {
         let text = include_str!("../../../fixtures/factory.toml")
             .replace("[localize]\n", "[localize]\nspeed_of_light = 3.0\n");
-        let e = ImagingScenario::from_toml_str(&text)
-            .unwrap_err()
-            .to_string();
+        let e = Scenario::from_toml_str(&text).unwrap_err().to_string();
         assert!(e.contains("speed_of_light"), "{e}");
     }
 }
