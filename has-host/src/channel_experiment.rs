@@ -41,6 +41,7 @@ use comparison::{compare_ue, twin_objects, with_material, UeOutcome};
 
 pub mod comparison;
 pub mod exports;
+mod markdown;
 
 pub use exports::{errors_by_param, errors_csv, ue_map, ues_csv, UeMap};
 

@@ -234,6 +234,11 @@ impl SuiteReport {
         }
     }
 
+    /// The Markdown page of the run (`suite.md`).
+    pub fn markdown(&self) -> String {
+        markdown(&self.sites, self.preset)
+    }
+
     /// The names of the sites that failed, in order.
     pub fn failed_sites(&self) -> Vec<&str> {
         self.sites
@@ -242,6 +247,61 @@ impl SuiteReport {
             .map(|r| r.site.as_str())
             .collect()
     }
+}
+
+/// `x` with `digits` decimals, or `—`.
+fn cell(x: Option<f64>, digits: usize) -> String {
+    match x {
+        Some(v) if v.is_finite() => format!("{v:.digits$}"),
+        _ => "—".to_string(),
+    }
+}
+
+/// The Markdown page of `rows` run with preset `preset` (`suite.md`: one table, then the
+/// failed sites with their errors); [`SuiteReport::markdown`] of a whole run.
+pub fn markdown(rows: &[SuiteRow], preset: &str) -> String {
+    let mut s = format!(
+        "# has-sim suite — preset `{preset}`\n\n\
+         | site | cloud √CD (m) | cloud F(1.5 m) | mesh √CD (m) | mesh F(1.5 m) | \
+         mesh false surface (%) | mesh area / truth area | observable (%) | imaging (s) | \
+         peak memory (MiB) |\n\
+         |---|---|---|---|---|---|---|---|---|---|\n"
+    );
+    for r in rows {
+        if r.ok {
+            s += &format!(
+                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
+                r.site,
+                cell(r.cloud_sqrt_cd_m, 3),
+                cell(r.cloud_fscore_1_5m, 1),
+                cell(r.mesh_sqrt_cd_m, 3),
+                cell(r.mesh_fscore_1_5m, 1),
+                cell(r.mesh_false_surface_pct, 1),
+                cell(r.mesh_area_ratio, 2),
+                cell(r.observable_pct, 1),
+                cell(r.imaging_s, 1),
+                cell(r.peak_rss_mib, 0),
+            );
+        } else {
+            s += &format!("| {} | **failed** |  |  |  |  |  |  |  |  |\n", r.site);
+        }
+    }
+    s += "\nF-scores in %; false surface: share of the mesh's area farther than 1.5 m from the \
+          true surface; observable: share of the true surface in line of sight of some imaged \
+          pair (both legs); peak memory: the process's peak resident set during the site's run.\n";
+    let failed: Vec<&SuiteRow> = rows.iter().filter(|r| !r.ok).collect();
+    if !failed.is_empty() {
+        s += "\n## Failed sites\n\n";
+        for r in failed {
+            s += &format!(
+                "- {} ({}): {}\n",
+                r.site,
+                r.scenario,
+                r.error.as_deref().unwrap_or("")
+            );
+        }
+    }
+    s
 }
 
 #[cfg(test)]
@@ -301,5 +361,31 @@ mod tests {
         let report = SuiteReport::new("quick", Path::new("suite"), vec![err, panicked]);
         assert_eq!(report.failed, 2);
         assert_eq!(report.failed_sites(), ["a", "b"]);
+    }
+
+    #[test]
+    fn a_failed_site_is_a_row_marked_failed_with_its_error() {
+        let ok = SuiteRow {
+            site: "a".into(),
+            ok: true,
+            cloud_sqrt_cd_m: Some(1.25),
+            cloud_fscore_1_5m: Some(91.04),
+            mesh_sqrt_cd_m: Some(1.0),
+            mesh_fscore_1_5m: Some(93.0),
+            mesh_false_surface_pct: Some(4.0),
+            mesh_area_ratio: Some(1.1),
+            observable_pct: Some(80.0),
+            imaging_s: Some(12.0),
+            peak_rss_mib: Some(100.0),
+            ..SuiteRow::default()
+        };
+        let b = Site {
+            name: "b".into(),
+            scenario: PathBuf::from("b.toml"),
+        };
+        let md = markdown(&[ok, SuiteRow::failed(&b, "boom")], "quick");
+        assert!(md.contains("| a | 1.250 | 91.0 | 1.000 | 93.0 | 4.0 | 1.10 | 80.0 | 12.0 | 100 |"));
+        assert!(md.contains("| b | **failed** |"));
+        assert!(md.contains("- b (b.toml): boom"));
     }
 }

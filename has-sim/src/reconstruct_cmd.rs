@@ -9,14 +9,12 @@ use anyhow::{Context, Result};
 use clap::Args;
 use has_host::imaging::{self, RunOptions};
 use has_host::io::{save_cloud, save_mesh};
-use has_host::metrics::ObservableCompleteness;
 use has_host::reconstruction::{
-    self, Prepared, ReconstructError, ReconstructOptions, ReconstructReport, Reconstruction,
+    self, Prepared, ReconstructError, ReconstructOptions, ReconstructRunReport, Reconstruction,
 };
 use has_host::scenario::Scenario;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
 use plotters::style::RGBColor;
-use serde::Serialize;
 
 use crate::plot::{self, View};
 
@@ -213,20 +211,6 @@ fn write_cloud_files(out: &Path, rec: &Reconstruction) -> Result<()> {
     Ok(())
 }
 
-/// `report.json` of `reconstruct`: the library's report with what only the command knows.
-#[derive(Clone, Debug, Serialize)]
-pub struct RunReport {
-    /// The scenario file (or the bundled one).
-    pub scenario: String,
-    /// `quick` or `default`.
-    pub preset: &'static str,
-    /// Peak resident memory of the process, MiB.
-    pub peak_rss_mib: Option<f64>,
-    /// The reconstruction's figures.
-    #[serde(flatten)]
-    pub reconstruction: ReconstructReport,
-}
-
 /// Runs `reconstruct` on `scenario` (default: the bundled factory), with the quick preset if
 /// `quick`: the library's digital twin ([`Prepared::reconstruct_twin`]), with every file of
 /// `reconstruct` written into `out`; returns the path of the mesh it wrote (`out/mesh.obj`), which
@@ -277,16 +261,19 @@ fn check_args(args: &ReconstructArgs) -> Result<()> {
 /// Refuses pair clouds from a run of another scenario or preset: `dir/report.json` must name
 /// the same scenario file and preset.
 fn check_pairs_run(dir: &Path, scenario: &str, preset: &str) -> Result<()> {
+    /// What `--from-pairs` reads of a run's `report.json` ([`ReconstructRunReport`]'s fields).
+    #[derive(serde::Deserialize)]
+    struct RunOf {
+        scenario: String,
+        preset: String,
+    }
     let path = dir.join("report.json");
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("--from-pairs: reading {}", path.display()))?;
-    let v: serde_json::Value = serde_json::from_str(&text)
+    let run: RunOf = serde_json::from_str(&text)
         .with_context(|| format!("--from-pairs: parsing {}", path.display()))?;
     let file = |s: &str| Path::new(s).file_name().map(|f| f.to_os_string());
-    let (run_sc, run_preset) = (
-        v["scenario"].as_str().unwrap_or_default(),
-        v["preset"].as_str().unwrap_or_default(),
-    );
+    let (run_sc, run_preset) = (run.scenario.as_str(), run.preset.as_str());
     if file(run_sc) != file(scenario) || run_preset != preset {
         anyhow::bail!(
             "--from-pairs: {} is a run of {run_sc} (preset {run_preset}), not of {scenario} \
@@ -314,7 +301,7 @@ pub const OUTPUTS: [&str; 12] = [
 ];
 
 /// Runs the command; returns what it wrote to `report.json`.
-pub fn run(args: ReconstructArgs) -> Result<RunReport> {
+pub fn run(args: ReconstructArgs) -> Result<ReconstructRunReport> {
     check_args(&args)?;
     let opts = ReconstructOptions {
         run: RunOptions {
@@ -347,7 +334,7 @@ fn execute(
         Prepared<'_>,
         &(dyn Fn(usize, u64, u64) + Sync),
     ) -> Result<Reconstruction, ReconstructError>,
-) -> Result<RunReport> {
+) -> Result<ReconstructRunReport> {
     let t0 = Instant::now();
     let (sc, scenario_name) = load(args)?;
     if let Some(dir) = &args.from_pairs {
@@ -387,7 +374,7 @@ fn execute(
     if let Some(surf) = &rec.surface {
         write_mesh_files(&args.out, &rec, surf)?;
     }
-    let mut report = RunReport {
+    let mut report = ReconstructRunReport {
         scenario: scenario_name,
         preset: if args.quick { "quick" } else { "default" },
         peak_rss_mib: crate::resources::peak_rss_mib(),
@@ -400,7 +387,7 @@ fn execute(
     has_host::io::atomic_write(&args.out.join("report.json"), |w| {
         std::io::Write::write_all(w, text.as_bytes())
     })?;
-    let md = report_md(&report)?;
+    let md = report.markdown();
     has_host::io::atomic_write(&args.out.join("report.md"), |w| {
         std::io::Write::write_all(w, md.as_bytes())
     })?;
@@ -426,153 +413,4 @@ fn execute(
     );
     run_dir.finish()?;
     Ok(report)
-}
-
-fn report_md(report: &RunReport) -> Result<String> {
-    use std::fmt::Write;
-    let r = &report.reconstruction;
-    let mut s = String::new();
-    let pc = &r.imaging.point_cloud;
-    writeln!(s, "# has-sim reconstruct — {}", report.scenario)?;
-    writeln!(
-        s,
-        "\nPreset `{}`, back-projection path `{}`, echoes `{}`, voxel {:?} m.\n",
-        report.preset, r.path, r.echo, r.imaging.voxel_m
-    )?;
-    writeln!(s, "| imaging point cloud | this run | paper (Table 1) |")?;
-    writeln!(s, "|---|---|---|")?;
-    writeln!(
-        s,
-        "| √Chamfer distance | {:.3} m | 1.18 m |",
-        pc.metrics.sqrt_chamfer_m
-    )?;
-    for f in pc.metrics.fscores() {
-        let d = f.threshold_m;
-        let paper = if d == 1.5 { "94" } else { "—" };
-        writeln!(
-            s,
-            "| F-score (d = {d} m) | {:.1} (P {:.1}, R {:.1}) | {paper} |",
-            f.fscore_pct, f.precision_pct, f.recall_pct
-        )?;
-    }
-    writeln!(
-        s,
-        "| points | {} ({} unconfirmed by the pairs that see them, {} terrain echoes, {} copies of a surface a finer pair placed at another height removed) | — |",
-        pc.metrics.points, pc.unconfirmed_removed, pc.terrain_echoes_removed, pc.finer_heights_removed
-    )?;
-    if let Some(m) = &r.mesh {
-        writeln!(s, "\n| reconstructed mesh | this run | paper (Table 1) |")?;
-        writeln!(s, "|---|---|---|")?;
-        writeln!(
-            s,
-            "| √Chamfer distance | {:.3} m | 0.96 m |",
-            m.metrics.sqrt_chamfer_m
-        )?;
-        for (f, paper) in m.metrics.fscores().iter().zip(["—", "—", "96"]) {
-            writeln!(
-                s,
-                "| F-score (d = {:.1} m) | {:.1} (P {:.1}, R {:.1}) | {paper} |",
-                f.threshold_m, f.fscore_pct, f.precision_pct, f.recall_pct
-            )?;
-        }
-        writeln!(
-            s,
-            "| rms distance to / from the truth | {:.3} / {:.3} m (cloud {:.3} / {:.3} m) | — |",
-            m.metrics.rms_to_truth_m,
-            m.metrics.rms_from_truth_m,
-            pc.metrics.rms_to_truth_m,
-            pc.metrics.rms_from_truth_m
-        )?;
-        writeln!(
-            s,
-            "| false surface (area > 1.5 m from the truth) / area against the truth's | {:.1} % / {:.2} ({:.0} of {:.0} m²) | — |",
-            m.false_surface_pct_1_5m, m.area_ratio, m.area_m2, m.truth_area_m2
-        )?;
-        writeln!(
-            s,
-            "| vertices / faces | {} / {} (watertight: {}) | — |",
-            m.vertices, m.faces, m.watertight
-        )?;
-        writeln!(
-            s,
-            "\nMesh: screened Poisson depth {} (cell {:.3} m), {}, clipped to the imaging region and to {:.2} m (half the coarsest pair resolution cell) of the fused points, components under {:.2} of the largest area dropped; {:.1} s. Sampled at {:?} points per m² for the metrics.",
-            m.depth,
-            m.cell_m,
-            match m.trim_median_fraction {
-                Some(f) => format!("trimmed below {f:.2} × the median support density"),
-                None => "no density trim".to_string(),
-            },
-            m.support_distance_m.unwrap_or(f32::NAN),
-            m.min_component_fraction,
-            m.seconds,
-            m.sample_density_per_m2
-        )?;
-        if let Some(v) = &m.visibility_filter {
-            writeln!(
-                s,
-                "Visibility consistency: {} of {} fused points were hidden by a first-pass surface from every sensor that observed them (margin {:?} m) and were left out of the mesh.",
-                v.removed_points, v.input_points, v.margin_m as f64
-            )?;
-        }
-    }
-    let obs = |v: Option<&ObservableCompleteness>, observable: bool| {
-        let part = v.and_then(|v| if observable { v.observable } else { v.hidden });
-        match part {
-            Some(p) => format!("{:.3} m / {:.1} %", p.rms_from_truth_m, p.recall_1_5m),
-            None => "— (no such truth points)".to_string(),
-        }
-    };
-    let mo = r.mesh.as_ref().map(|m| &m.observable_truth);
-    let gt = &r.imaging.ground_truth;
-    writeln!(
-        s,
-        "\n{:.1} % of the ground truth is in line of sight of some imaged pair (both legs), {:.1} % of some pairing of the scenario's base stations and apertures; the rest can only be inferred. Completeness (rms distance from the truth / recall at 1.5 m): observable part — cloud {}, mesh {}; hidden part — cloud {}, mesh {}.",
-        gt.observable_pct,
-        gt.observable_any_pairing_pct,
-        obs(Some(&pc.observable_truth), true),
-        obs(mo, true),
-        obs(Some(&pc.observable_truth), false),
-        obs(mo, false),
-    )?;
-    writeln!(s, "\n## Pairs\n")?;
-    writeln!(
-        s,
-        "| pair | positions × elements | resolution cell m | points | fine voxels | BP s | synth s |"
-    )?;
-    writeln!(s, "|---|---|---|---|---|---|---|")?;
-    for p in &r.imaging.pairs {
-        let st = &p.stats;
-        writeln!(
-            s,
-            "| {} | {} × {} | {:.2} | {} | {} / {} | {:.1} | {:.1} |",
-            p.name,
-            st.frames,
-            st.elements,
-            p.resolution_cell_m,
-            p.points,
-            st.fine_voxels,
-            st.region_voxels,
-            st.bp_s,
-            st.synth_s,
-        )?;
-    }
-    let t = &r.timings_s;
-    writeln!(
-        s,
-        "\nWall {:.1} s (imaging {:.1} s, of which back-projection {:.1} s); {:.3e} backprojections at {:.3e}/s on {} threads.",
-        t.wall, t.imaging, t.backprojection, r.backprojections, r.backprojections_per_s, r.threads
-    )?;
-    if let Some(p) = report.peak_rss_mib {
-        writeln!(s, "Peak resident memory {p:.0} MiB.")?;
-    }
-    writeln!(
-        s,
-        "\nGround truth: {} points at {:?} per m² on {}. Conventions: {}; {}.",
-        pc.metrics.truth_points,
-        gt.density_per_m2,
-        gt.surfaces,
-        r.conventions.chamfer,
-        r.conventions.fscore
-    )?;
-    Ok(s)
 }

@@ -4,7 +4,7 @@
 //! Each site (a scenario file; its name is the file stem, [`has_host::suite::discover`]) is
 //! reconstructed in turn by [`crate::reconstruct_cmd::run`] into `DIR/<site>/`, sorted by name or
 //! in the order given by `--sites`. Each site's typed report (the one it wrote to its
-//! `report.json`) gives a [`SuiteRow`]; `DIR/suite.json` holds the [`SuiteReport`] and
+//! `report.json`) gives a [`has_host::suite::SuiteRow`]; `DIR/suite.json` holds the [`SuiteReport`] and
 //! `DIR/suite.md` its rows as one Markdown table. A site that fails (an error, or a panic) is a
 //! row marked failed with its error; the other sites still run and the command exits non-zero at
 //! the end. The peak memory of a site is the process's peak since that site started (Linux; see
@@ -14,7 +14,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::{bail, Context, Result};
 use clap::Args;
-use has_host::suite::{self, SuiteReport, SuiteRow};
+use has_host::suite::{self, SuiteReport};
 
 use crate::reconstruct_cmd::ReconstructArgs;
 
@@ -39,60 +39,6 @@ pub struct SuiteArgs {
     /// tree's.
     #[arg(long)]
     pub suite_dir: Option<PathBuf>,
-}
-
-/// `x` with `digits` decimals, or `—`.
-fn cell(x: Option<f64>, digits: usize) -> String {
-    match x {
-        Some(v) if v.is_finite() => format!("{v:.digits$}"),
-        _ => "—".to_string(),
-    }
-}
-
-/// The Markdown page of the rows.
-pub fn render_md(rows: &[SuiteRow], preset: &str) -> String {
-    let mut s = format!(
-        "# has-sim suite — preset `{preset}`\n\n\
-         | site | cloud √CD (m) | cloud F(1.5 m) | mesh √CD (m) | mesh F(1.5 m) | \
-         mesh false surface (%) | mesh area / truth area | observable (%) | imaging (s) | \
-         peak memory (MiB) |\n\
-         |---|---|---|---|---|---|---|---|---|---|\n"
-    );
-    for r in rows {
-        if r.ok {
-            s += &format!(
-                "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
-                r.site,
-                cell(r.cloud_sqrt_cd_m, 3),
-                cell(r.cloud_fscore_1_5m, 1),
-                cell(r.mesh_sqrt_cd_m, 3),
-                cell(r.mesh_fscore_1_5m, 1),
-                cell(r.mesh_false_surface_pct, 1),
-                cell(r.mesh_area_ratio, 2),
-                cell(r.observable_pct, 1),
-                cell(r.imaging_s, 1),
-                cell(r.peak_rss_mib, 0),
-            );
-        } else {
-            s += &format!("| {} | **failed** |  |  |  |  |  |  |  |  |\n", r.site);
-        }
-    }
-    s += "\nF-scores in %; false surface: share of the mesh's area farther than 1.5 m from the \
-          true surface; observable: share of the true surface in line of sight of some imaged \
-          pair (both legs); peak memory: the process's peak resident set during the site's run.\n";
-    let failed: Vec<&SuiteRow> = rows.iter().filter(|r| !r.ok).collect();
-    if !failed.is_empty() {
-        s += "\n## Failed sites\n\n";
-        for r in failed {
-            s += &format!(
-                "- {} ({}): {}\n",
-                r.site,
-                r.scenario,
-                r.error.as_deref().unwrap_or("")
-            );
-        }
-    }
-    s
 }
 
 /// Runs the command.
@@ -133,7 +79,7 @@ pub fn run(args: SuiteArgs) -> Result<()> {
     has_host::io::atomic_write(&args.out.join("suite.json"), |w| {
         std::io::Write::write_all(w, json.as_bytes())
     })?;
-    let md = render_md(&report.sites, preset);
+    let md = report.markdown();
     has_host::io::atomic_write(&args.out.join("suite.md"), |w| {
         std::io::Write::write_all(w, md.as_bytes())
     })?;
@@ -148,35 +94,4 @@ pub fn run(args: SuiteArgs) -> Result<()> {
         );
     }
     Ok(())
-}
-
-#[cfg(test)]
-mod tests {
-    use super::*;
-
-    #[test]
-    fn a_failed_site_is_a_row_marked_failed_with_its_error() {
-        let ok = SuiteRow {
-            site: "a".into(),
-            ok: true,
-            cloud_sqrt_cd_m: Some(1.25),
-            cloud_fscore_1_5m: Some(91.04),
-            mesh_sqrt_cd_m: Some(1.0),
-            mesh_fscore_1_5m: Some(93.0),
-            mesh_false_surface_pct: Some(4.0),
-            mesh_area_ratio: Some(1.1),
-            observable_pct: Some(80.0),
-            imaging_s: Some(12.0),
-            peak_rss_mib: Some(100.0),
-            ..SuiteRow::default()
-        };
-        let b = suite::Site {
-            name: "b".into(),
-            scenario: PathBuf::from("b.toml"),
-        };
-        let md = render_md(&[ok, SuiteRow::failed(&b, "boom")], "quick");
-        assert!(md.contains("| a | 1.250 | 91.0 | 1.000 | 93.0 | 4.0 | 1.10 | 80.0 | 12.0 | 100 |"));
-        assert!(md.contains("| b | **failed** |"));
-        assert!(md.contains("- b (b.toml): boom"));
-    }
 }

@@ -31,6 +31,7 @@
 //! receiver noise are synthesized as OFDM subcarriers and range-compressed by has-dsp per symbol.
 
 pub mod chain;
+mod markdown;
 pub mod outputs;
 pub mod report;
 pub mod run;

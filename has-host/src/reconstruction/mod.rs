@@ -13,6 +13,8 @@
 //! reconstruction, S2 the truth samples); mesh metrics on area samples of the mesh at the truth's
 //! density.
 
+mod run_report;
+
 use std::time::Instant;
 
 use glam::Vec3;
@@ -26,6 +28,8 @@ use crate::imaging::{
 use crate::knn::GeometryError;
 use crate::mesh::TriMesh;
 use crate::metrics::{surface_area_metrics, CloudComparison, CloudMetrics, ObservableCompleteness};
+
+pub use run_report::ReconstructRunReport;
 
 /// Why a reconstruction failed.
 #[derive(Debug, thiserror::Error)]
