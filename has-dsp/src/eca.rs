@@ -45,6 +45,16 @@
 //!   them nearly collinear (Σ(G⁻¹)_mm grows with the condition number) and the reference is
 //!   weak. Use `D = 1` with short batches, as the literature does.
 //!
+//! Who runs which path: the host pipeline (`has_host::localize`) runs the f32 path, since its
+//! echoes are synthesised in f32; the Q15 path is for firmware fed by a Q15 front end, and is
+//! held to the f32 path by the tests of `tests/eca_template.rs` (the error power of the Q15
+//! output within the budget of its input and output rounding).
+//!
+//! The two paths are one set of kernels (basis, correlations, solve, cancellation) written over
+//! the sample type (the crate-private `EcaSample` trait: the accumulator, the phasor rounding,
+//! the weights' form and their application are the only parts that differ); the public entry
+//! points are the typed `_f32` / `_q15` pairs below.
+//!
 //! Configuration is `&self` ([`Eca`]); the correlation matrices live in a caller-owned
 //! [`EcaWorkspace`] (for `M = 64` about 130 kB: box it on a host). For many surveillance channels
 //! sharing one reference (an array), [`Eca::factor_f32`] / [`Eca::factor_q15`] compute the
@@ -140,6 +150,130 @@ impl<const M: usize> EcaWorkspace<M> {
 impl<const M: usize> Default for EcaWorkspace<M> {
     fn default() -> Self {
         Self::new()
+    }
+}
+
+/// The sample type the ECA kernels are written over, once: `C32` (correlations summed in
+/// `f64`, weights applied in `f32`) or [`CQ15`] (correlations exact in `i64`, weights as
+/// [`BlockWeights`] applied with integer multiply-accumulates, module docs). Only these
+/// operations differ between the two paths; the windows, basis, sums and solve are shared.
+pub(crate) trait EcaSample<const M: usize>: Copy {
+    /// Zero sample.
+    const ZERO: Self;
+    /// The sample as the correlation multiplies it (`C64` for f32, itself for Q15).
+    type Wide: Copy;
+    /// Zero [`EcaSample::Wide`].
+    const WIDE_ZERO: Self::Wide;
+    /// Correlation accumulator.
+    type Acc: Copy;
+    /// Zero accumulator.
+    const ACC_ZERO: Self::Acc;
+    /// Solved weights in the form the application loop uses.
+    type Weights;
+
+    /// The sample widened for the correlation.
+    fn widen(self) -> Self::Wide;
+    /// `acc + conj(a)·b`.
+    fn conj_mul_add(acc: Self::Acc, a: Self::Wide, b: Self::Wide) -> Self::Acc;
+    /// A correlation sum as `f64` (in units of the sample squared).
+    fn acc_f64(acc: Self::Acc) -> C64;
+    /// A Doppler phasor rounded to the sample type (through `f32`).
+    fn phasor(z: C64) -> Self;
+    /// Basis sample `x·p` of a Doppler column; `centre` is the zero-Doppler column, whose phasor
+    /// is exactly 1.
+    fn rotate(x: Self, p: Self, centre: bool) -> Self;
+    /// The first `m` solved weights in the application form.
+    ///
+    /// # Errors
+    /// As [`BlockWeights::quantize`] for Q15; never for f32.
+    fn weights(w: &[C64; M], m: usize) -> Result<Self::Weights, DspError>;
+    /// `s − Σ_{i<m} w_i·b_i`.
+    fn subtract(s: Self, w: &Self::Weights, b: &[Self; M], m: usize) -> Self;
+}
+
+impl<const M: usize> EcaSample<M> for C32 {
+    const ZERO: Self = C32::new(0.0, 0.0);
+    type Wide = C64;
+    const WIDE_ZERO: C64 = C64::new(0.0, 0.0);
+    type Acc = C64;
+    const ACC_ZERO: C64 = C64::new(0.0, 0.0);
+    type Weights = [C32; M];
+
+    #[inline]
+    fn widen(self) -> C64 {
+        C64::new(self.re as f64, self.im as f64)
+    }
+    #[inline]
+    fn conj_mul_add(acc: C64, a: C64, b: C64) -> C64 {
+        acc + a.conj() * b
+    }
+    #[inline]
+    fn acc_f64(acc: C64) -> C64 {
+        acc
+    }
+    #[inline]
+    fn phasor(z: C64) -> Self {
+        C32::new(z.re as f32, z.im as f32)
+    }
+    #[inline]
+    fn rotate(x: Self, p: Self, _centre: bool) -> Self {
+        x * p
+    }
+    fn weights(w: &[C64; M], _m: usize) -> Result<[C32; M], DspError> {
+        let mut w32 = [C32::new(0.0, 0.0); M];
+        for (a, z) in w32.iter_mut().zip(w) {
+            *a = C32::new(z.re as f32, z.im as f32);
+        }
+        Ok(w32)
+    }
+    #[inline]
+    fn subtract(s: Self, w: &[C32; M], b: &[Self; M], m: usize) -> Self {
+        let mut y = s;
+        for (wi, bi) in w.iter().zip(b).take(m) {
+            y -= wi * bi;
+        }
+        y
+    }
+}
+
+impl<const M: usize> EcaSample<M> for CQ15 {
+    const ZERO: Self = CQ15::new(crate::fixed::Q15::ZERO, crate::fixed::Q15::ZERO);
+    type Wide = CQ15;
+    const WIDE_ZERO: CQ15 = <CQ15 as EcaSample<M>>::ZERO;
+    type Acc = Complex<i64>;
+    const ACC_ZERO: Complex<i64> = Complex::new(0, 0);
+    type Weights = BlockWeights<M>;
+
+    #[inline]
+    fn widen(self) -> CQ15 {
+        self
+    }
+    #[inline]
+    fn conj_mul_add(acc: Complex<i64>, a: CQ15, b: CQ15) -> Complex<i64> {
+        acc + q15_conj_mul_i64(a, b)
+    }
+    #[inline]
+    fn acc_f64(acc: Complex<i64>) -> C64 {
+        q30_to_f64(acc)
+    }
+    #[inline]
+    fn phasor(z: C64) -> Self {
+        cq15_from_c32(C32::new(z.re as f32, z.im as f32))
+    }
+    #[inline]
+    fn rotate(x: Self, p: Self, centre: bool) -> Self {
+        if centre {
+            x
+        } else {
+            cq15_mul(x, p)
+        }
+    }
+    fn weights(w: &[C64; M], m: usize) -> Result<BlockWeights<M>, DspError> {
+        BlockWeights::<M>::quantize(w, m)
+    }
+    #[inline]
+    fn subtract(s: Self, w: &BlockWeights<M>, b: &[Self; M], m: usize) -> Self {
+        q15_sub_weighted(s, &w.mant[..m], b.iter().copied(), w.frac_bits)
     }
 }
 
@@ -304,33 +438,17 @@ impl<const M: usize> Eca<M> {
         }
     }
 
-    /// Basis samples `b_m[n]` of the f32 path (phasors rounded to f32 once per Doppler bin).
+    /// Basis samples `b_m[n]` at sample `n`: the reference for `D = 1`, else the reference times
+    /// each Doppler phasor, the phasors rounded to the sample type once per Doppler bin.
     #[inline]
-    fn basis_f32(&self, x: &[C32], n: usize, len: usize, p: &mut [C64; M], b: &mut [C32; M]) {
-        let (kk, dd) = (self.delays, self.dopplers);
-        if dd == 1 {
-            for (k, bk) in b.iter_mut().enumerate().take(kk) {
-                *bk = x[n + kk - 1 - k];
-            }
-            return;
-        }
-        self.phasors(n, len, p);
-        let mut pf = [C32::new(0.0, 0.0); M];
-        for (f, z) in pf.iter_mut().zip(p.iter()).take(dd) {
-            *f = C32::new(z.re as f32, z.im as f32);
-        }
-        for k in 0..kk {
-            let xv = x[n + kk - 1 - k];
-            for (bm, pd) in b[k * dd..(k + 1) * dd].iter_mut().zip(&pf) {
-                *bm = xv * pd;
-            }
-        }
-    }
-
-    /// Basis samples of the Q15 path: the reference for `d = 0`, reference × rounded Q15 phasor
-    /// (rounded product) otherwise. The Q15 phasors are rounded once per Doppler bin.
-    #[inline]
-    fn basis_q15(&self, x: &[CQ15], n: usize, len: usize, p: &mut [C64; M], b: &mut [CQ15; M]) {
+    fn basis<S: EcaSample<M>>(
+        &self,
+        x: &[S],
+        n: usize,
+        len: usize,
+        p: &mut [C64; M],
+        b: &mut [S; M],
+    ) {
         let (kk, dd) = (self.delays, self.dopplers);
         if dd == 1 {
             for (k, bk) in b.iter_mut().enumerate().take(kk) {
@@ -340,19 +458,51 @@ impl<const M: usize> Eca<M> {
         }
         self.phasors(n, len, p);
         let h = (dd - 1) / 2;
-        let mut pq = [CQ15::default(); M];
-        for (q, z) in pq.iter_mut().zip(p.iter()).take(dd) {
-            *q = cq15_from_c32(C32::new(z.re as f32, z.im as f32));
+        let mut ps = [S::ZERO; M];
+        for (q, z) in ps.iter_mut().zip(p.iter()).take(dd) {
+            *q = S::phasor(*z);
         }
         for k in 0..kk {
             let xv = x[n + kk - 1 - k];
-            for (d, (bm, pd)) in b[k * dd..(k + 1) * dd].iter_mut().zip(&pq).enumerate() {
-                *bm = if d == h { xv } else { cq15_mul(xv, *pd) };
+            for (d, (bm, pd)) in b[k * dd..(k + 1) * dd].iter_mut().zip(&ps).enumerate() {
+                *bm = S::rotate(xv, *pd, d == h);
             }
         }
     }
 
-    /// Forms and factors `XᴴX` over `est` (f32 path).
+    /// Zeroes `acc` and sums `XᴴX` over `est` into its lower triangle (in the sample type's
+    /// accumulator: `f64` for f32 samples, exact `i64` for Q15).
+    fn gram<S: EcaSample<M>>(
+        &self,
+        x: &[S],
+        len: usize,
+        est: Range<usize>,
+        acc: &mut [[S::Acc; M]; M],
+    ) {
+        let m = self.columns();
+        for row in acc.iter_mut().take(m) {
+            for v in row.iter_mut().take(m) {
+                *v = S::ACC_ZERO;
+            }
+        }
+        let mut p = [C64::new(0.0, 0.0); M];
+        let mut b = [S::ZERO; M];
+        let mut bw = [S::WIDE_ZERO; M];
+        for n in est {
+            self.basis(x, n, len, &mut p, &mut b);
+            for (w, v) in bw.iter_mut().zip(&b).take(m) {
+                *w = v.widen();
+            }
+            for i in 0..m {
+                let bi = bw[i];
+                for (g, bj) in acc[i].iter_mut().zip(&bw).take(i + 1) {
+                    *g = S::conj_mul_add(*g, bi, *bj);
+                }
+            }
+        }
+    }
+
+    /// Forms and factors `XᴴX` over `est` (f32 path: the sums accumulate in the factor itself).
     fn factor_window_f32(
         &self,
         x: &[C32],
@@ -360,27 +510,7 @@ impl<const M: usize> Eca<M> {
         est: Range<usize>,
         f: &mut EcaFactor<M>,
     ) -> Result<(), DspError> {
-        let m = self.columns();
-        for row in f.l.iter_mut().take(m) {
-            for v in row.iter_mut().take(m) {
-                *v = C64::new(0.0, 0.0);
-            }
-        }
-        let mut p = [C64::new(0.0, 0.0); M];
-        let mut b = [C32::new(0.0, 0.0); M];
-        let mut b64 = [C64::new(0.0, 0.0); M];
-        for n in est {
-            self.basis_f32(x, n, len, &mut p, &mut b);
-            for (d, s) in b64.iter_mut().zip(&b).take(m) {
-                *d = C64::new(s.re as f64, s.im as f64);
-            }
-            for i in 0..m {
-                let bi = b64[i].conj();
-                for (g, bj) in f.l[i].iter_mut().zip(&b64).take(i + 1) {
-                    *g += bi * bj;
-                }
-            }
-        }
+        self.gram(x, len, est, &mut f.l);
         self.factor_gram(f)
     }
 
@@ -393,26 +523,11 @@ impl<const M: usize> Eca<M> {
         acc: &mut [[Complex<i64>; M]; M],
         f: &mut EcaFactor<M>,
     ) -> Result<(), DspError> {
+        self.gram(x, len, est, acc);
         let m = self.columns();
-        for row in acc.iter_mut().take(m) {
-            for v in row.iter_mut().take(m) {
-                *v = Complex::new(0, 0);
-            }
-        }
-        let mut p = [C64::new(0.0, 0.0); M];
-        let mut b = [CQ15::default(); M];
-        for n in est {
-            self.basis_q15(x, n, len, &mut p, &mut b);
-            for i in 0..m {
-                let bi = b[i];
-                for (g, bj) in acc[i].iter_mut().zip(&b).take(i + 1) {
-                    *g += q15_conj_mul_i64(bi, *bj);
-                }
-            }
-        }
         for (i, (lrow, arow)) in f.l.iter_mut().zip(acc.iter()).take(m).enumerate() {
             for (l, a) in lrow.iter_mut().zip(arow).take(i + 1) {
-                *l = q30_to_f64(*a);
+                *l = <CQ15 as EcaSample<M>>::acc_f64(*a);
             }
         }
         self.factor_gram(f)
@@ -443,72 +558,37 @@ impl<const M: usize> Eca<M> {
         cholesky_solve(&f.l, m, w)
     }
 
-    /// Cancels one window (f32 path): `Xᴴs` over `est`, solve, `s − X·w` over `app`.
-    fn cancel_window_f32(
+    /// Cancels one window: `Xᴴs` over `est` (in the accumulator type), solve in `f64`, then
+    /// `s − X·w` over `app` with the weights in the sample type's form ([`EcaSample::weights`]).
+    fn cancel_window<S: EcaSample<M>>(
         &self,
         f: &EcaFactor<M>,
-        x: &[C32],
-        s: &[C32],
-        out: &mut [C32],
+        x: &[S],
+        s: &[S],
+        out: &mut [S],
         win: &Window,
     ) -> Result<(), DspError> {
         let len = s.len();
         let m = self.columns();
         let mut p = [C64::new(0.0, 0.0); M];
-        let mut b = [C32::new(0.0, 0.0); M];
-        let mut w = [C64::new(0.0, 0.0); M];
+        let mut b = [S::ZERO; M];
+        let mut r = [S::ACC_ZERO; M];
         for n in win.est.clone() {
-            self.basis_f32(x, n, len, &mut p, &mut b);
-            let sn = C64::new(s[n].re as f64, s[n].im as f64);
-            for (wi, bi) in w.iter_mut().zip(&b).take(m) {
-                *wi += C64::new(bi.re as f64, -bi.im as f64) * sn;
-            }
-        }
-        self.solve(f, &mut w)?;
-        let mut w32 = [C32::new(0.0, 0.0); M];
-        for (a, z) in w32.iter_mut().zip(&w) {
-            *a = C32::new(z.re as f32, z.im as f32);
-        }
-        for n in win.app.clone() {
-            self.basis_f32(x, n, len, &mut p, &mut b);
-            let mut y = s[n];
-            for (wi, bi) in w32.iter().zip(&b).take(m) {
-                y -= wi * bi;
-            }
-            out[n] = y;
-        }
-        Ok(())
-    }
-
-    /// Cancels one window (Q15 path).
-    fn cancel_window_q15(
-        &self,
-        f: &EcaFactor<M>,
-        x: &[CQ15],
-        s: &[CQ15],
-        out: &mut [CQ15],
-        win: &Window,
-    ) -> Result<(), DspError> {
-        let len = s.len();
-        let m = self.columns();
-        let mut p = [C64::new(0.0, 0.0); M];
-        let mut b = [CQ15::default(); M];
-        let mut r = [Complex::new(0i64, 0i64); M];
-        for n in win.est.clone() {
-            self.basis_q15(x, n, len, &mut p, &mut b);
+            self.basis(x, n, len, &mut p, &mut b);
+            let sn = s[n].widen();
             for (ri, bi) in r.iter_mut().zip(&b).take(m) {
-                *ri += q15_conj_mul_i64(*bi, s[n]);
+                *ri = S::conj_mul_add(*ri, bi.widen(), sn);
             }
         }
         let mut w = [C64::new(0.0, 0.0); M];
         for (wi, ri) in w.iter_mut().zip(&r) {
-            *wi = q30_to_f64(*ri);
+            *wi = S::acc_f64(*ri);
         }
         self.solve(f, &mut w)?;
-        let q = BlockWeights::<M>::quantize(&w, m)?;
+        let weights = S::weights(&w, m)?;
         for n in win.app.clone() {
-            self.basis_q15(x, n, len, &mut p, &mut b);
-            out[n] = q15_sub_weighted(s[n], &q.mant[..m], b.iter().copied(), q.frac_bits);
+            self.basis(x, n, len, &mut p, &mut b);
+            out[n] = S::subtract(s[n], &weights, &b, m);
         }
         Ok(())
     }
@@ -532,7 +612,7 @@ impl<const M: usize> Eca<M> {
         for wi in 0..windows {
             let win = self.window(len, wi);
             self.factor_window_f32(reference, len, win.est.clone(), &mut ws.factor)?;
-            self.cancel_window_f32(&ws.factor, reference, surveillance, out, &win)?;
+            self.cancel_window(&ws.factor, reference, surveillance, out, &win)?;
         }
         Ok(())
     }
@@ -555,7 +635,7 @@ impl<const M: usize> Eca<M> {
         for wi in 0..windows {
             let win = self.window(len, wi);
             self.factor_window_q15(reference, len, win.est.clone(), &mut ws.acc, &mut ws.factor)?;
-            self.cancel_window_q15(&ws.factor, reference, surveillance, out, &win)?;
+            self.cancel_window(&ws.factor, reference, surveillance, out, &win)?;
         }
         Ok(())
     }
@@ -598,7 +678,7 @@ impl<const M: usize> Eca<M> {
         check_len("eca factors (one per window)", windows, factors.len())?;
         for (wi, f) in factors.iter().enumerate() {
             let win = self.window(len, wi);
-            self.cancel_window_f32(f, reference, surveillance, out, &win)?;
+            self.cancel_window(f, reference, surveillance, out, &win)?;
         }
         Ok(())
     }
@@ -640,7 +720,7 @@ impl<const M: usize> Eca<M> {
         check_len("eca factors (one per window)", windows, factors.len())?;
         for (wi, f) in factors.iter().enumerate() {
             let win = self.window(len, wi);
-            self.cancel_window_q15(f, reference, surveillance, out, &win)?;
+            self.cancel_window(f, reference, surveillance, out, &win)?;
         }
         Ok(())
     }
@@ -928,7 +1008,7 @@ mod tests {
                     .unwrap();
                 let mut w = [C64::new(0.0, 0.0); 12];
                 for i in win.est.clone() {
-                    eca.basis_f32(&xf, i, n, &mut p, &mut b);
+                    eca.basis(&xf, i, n, &mut p, &mut b);
                     let si = C64::new(sf[i].re as f64, sf[i].im as f64);
                     for (wm, bm) in w.iter_mut().zip(&b).take(m) {
                         *wm += C64::new(bm.re as f64, -bm.im as f64) * si;

@@ -22,6 +22,13 @@
 //!   exponent ([`BlockWeights`]) and applied with integer multiply-accumulate, rounding to nearest
 //!   and saturation back to Q15.
 //!
+//! Who runs which path: the host pipeline (`has_host::localize`) runs [`TemplateSet`] (its
+//! echoes are synthesised in f32); [`TemplateSetQ15`] is for firmware fed by a Q15 front end,
+//! held to the f32 path by `tests/eca_template.rs` (residual error power within the rounding
+//! budget). The two are not one generic type: the f32 path guards the `f32` range (gains and
+//! residuals that would overflow are refused), the Q15 path saturates, and their gains differ in
+//! form (`f32` against block floating point).
+//!
 //! Constructors copy nothing: a set borrows its templates.
 
 use crate::error::{check_len, DspError};
