@@ -407,7 +407,7 @@ mod tests {
         // The paper's panel: 1 m wide over 32 columns, 3.125 cm ≈ 1.04 λ at 10 GHz.
         let (a, lambda) = (panel(), 0.03f32);
         let (p, tx) = (Vec3::new(-20.0, 8.0, 3.0), Vec3::new(-5.0, -10.0, 1.5));
-        let range = |q: Vec3| q.distance(tx) + q.distance(a.centre);
+        let range = |q: Vec3| crate::bistatic_range(q, tx, a.centre);
         let aliases = a.grating_aliases(lambda, p, tx);
         assert!(!aliases.is_empty());
         for q in &aliases {

@@ -187,7 +187,7 @@ impl NadirBand {
             for k in 0..n {
                 let phi = std::f32::consts::TAU * k as f32 / n as f32;
                 let g = nadir + glam::Vec3::new(rho * phi.cos(), rho * phi.sin(), 0.0);
-                let e = g.distance(end) + g.distance(other) - baseline;
+                let e = crate::bistatic_range(g, end, other) - baseline;
                 lo = lo.min(e);
                 hi = hi.max(e);
             }
@@ -520,7 +520,7 @@ mod tests {
             for &a in &rx {
                 let mut profiles = vec![Complex::new(0.0f32, 0.0); tx.len() * bins];
                 for (&t, prof) in tx.iter().zip(profiles.chunks_exact_mut(bins)) {
-                    let range = (target.distance(t) + target.distance(a)) as f64;
+                    let range = crate::bistatic_range(target, t, a) as f64;
                     add_point_echo(
                         prof,
                         0.0,

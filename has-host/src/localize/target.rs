@@ -206,7 +206,7 @@ mod tests {
             )
             .unwrap();
         // Σ|a_p| bounds |H[k]|; the recursion bound (module docs) is relative to it.
-        let lambda = C_M_PER_S / 10e9;
+        let lambda = crate::wavelength_m(10e9);
         let mut sum_a = 0.0f64;
         for &i in &vis {
             let p = &moved.points[i as usize];
