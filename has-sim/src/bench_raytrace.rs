@@ -3,7 +3,8 @@
 //! city, and paths per second, with one thread and with all threads.
 
 use clap::{Args, Subcommand};
-use has_host::bench::raytrace::{BenchRow, BUILDINGS};
+use has_host::bench::raytrace::BUILDINGS;
+use has_host::bench::BenchRow;
 
 /// Benchmark subcommands.
 #[derive(Subcommand)]

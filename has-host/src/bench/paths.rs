@@ -8,8 +8,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::raytrace::BenchRow;
-use super::{pool, BenchError};
+use super::{pool, BenchError, BenchRow};
 use crate::paths::{Tracer, TracerConfig};
 use crate::scene::PROBE_UP;
 use crate::Scene;

@@ -11,43 +11,9 @@
 
 use glam::{Vec2, Vec3};
 
-use super::{pool, timed, BenchError};
+use super::{pool, timed, BenchError, BenchRow};
 use crate::shapes::{self, Building, Direction, Roof, ShapeError};
 use crate::{Material, Object, Scene, SceneError};
-
-/// One measured line of a throughput table.
-#[derive(Clone, Debug, serde::Serialize)]
-pub struct BenchRow {
-    /// What was measured.
-    pub name: String,
-    /// Worker threads used.
-    pub threads: usize,
-    /// Items processed (rays, segments, builds, ...).
-    pub count: usize,
-    /// Wall time, seconds.
-    pub seconds: f64,
-    /// Items per second of wall time.
-    pub per_second: f64,
-    /// Process CPU time (user + system) spent, seconds, if the OS reports it (Linux).
-    pub cpu_seconds: Option<f64>,
-    /// A sanity figure (hit fraction, visible fraction, ...), free text.
-    pub note: String,
-}
-
-impl BenchRow {
-    /// A row of `count` items in `seconds` of wall time (CPU time unknown).
-    pub fn new(name: &str, threads: usize, count: usize, seconds: f64, note: String) -> Self {
-        BenchRow {
-            name: name.into(),
-            threads,
-            count,
-            seconds,
-            per_second: count as f64 / seconds.max(1e-12),
-            cpu_seconds: None,
-            note,
-        }
-    }
-}
 
 /// The benchmark city of a raytrace run.
 #[derive(Clone, Debug, serde::Serialize)]

@@ -59,7 +59,7 @@ use super::detection::{
     effective_looks, image_false_alarm_probability, layer_looks_per_voxel, layer_window,
     local_mean, pareto_factor, CfarFactors, NadirBand,
 };
-use super::run::World;
+use super::world::World;
 use crate::echo::noise::ComplexGaussian;
 use crate::echo::{EchoConfig, EchoError, EchoSynth, Noise, ScattererSet, VisibilityCache};
 use crate::scenario::{Backprojection, Detection, Scenario};

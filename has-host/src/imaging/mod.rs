@@ -11,6 +11,7 @@ pub mod run;
 pub mod surface;
 pub mod terrain_echo;
 pub mod wall_columns;
+pub mod world;
 
 pub use crate::scenario::{Backprojection, Detection, Pairing, Scenario, ScenarioError};
 pub use crate::sensors;
@@ -25,6 +26,7 @@ pub use run::{
     build_world, check_memory, choose_pairs, every_facing_pair, every_pairing,
     facing_base_stations, fuse, fuse_images, memory_estimate, observable_truth, observing_pairs,
     observing_sensors, plan_pairs, resolution_cell_m, resolves_the_site, run_imaging, share_pct,
-    support_distance_m, survey_pairs, FusedCloud, RunError, RunResult, Terrain, World,
+    support_distance_m, survey_pairs, FusedCloud, RunError, RunResult,
 };
 pub use surface::{surface, Surface, SurfaceOptions, VisibilityFiltered};
+pub use world::{Terrain, World};

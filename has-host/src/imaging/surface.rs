@@ -48,8 +48,9 @@ use std::time::Instant;
 
 use glam::Vec3;
 
-use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult, Terrain};
+use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult};
 use super::wall_columns::{roof_edge_walls, wall_columns};
+use super::world::Terrain;
 use crate::knn::GeometryError;
 use crate::mesh::{
     depth_for_cell, estimate_normals, reconstruct, reconstruct_oriented, visibility_consistent,

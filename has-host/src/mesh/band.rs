@@ -40,8 +40,8 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use super::grid::{corner_weights, pcg, splat_normals, Grid, MAX_NODES};
 use super::iso::Polygonizer;
-use super::poisson::{corner_weights, pcg, splat_normals, Grid, MAX_NODES};
 use super::TriMesh;
 use crate::knn::GeometryError;
 

@@ -9,6 +9,7 @@
 //! [`repair`] makes the written mesh pass the vertex-manifold check as well.
 
 pub mod band;
+mod grid;
 pub mod iso;
 pub mod normals;
 pub mod poisson;
