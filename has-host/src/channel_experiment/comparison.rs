@@ -143,45 +143,12 @@ pub fn compare_ue(
     }
     Ok(out)
 }
+
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::scene::Scene;
-    use crate::shapes;
-    use glam::DVec3;
-    use glam::Vec3;
-
-    fn spec() -> ChannelSpec {
-        toml::from_str(
-            r#"
-            bs_position = [-45.0, -40.0, 20.0]
-            bs_boresight_deg = 41.6
-            ue_region_min = [-60.0, -50.0]
-            ue_region_max = [60.0, 50.0]
-            "#,
-        )
-        .unwrap()
-    }
-
-    fn factory_scene() -> Scene {
-        let g = shapes::ground(
-            "yard",
-            Material::Concrete,
-            glam::Vec2::new(-100.0, -100.0),
-            glam::Vec2::new(100.0, 100.0),
-            0.0,
-            (1, 1),
-        )
-        .unwrap();
-        let b = shapes::axis_box(
-            "hall",
-            Material::Concrete,
-            Vec3::new(-20.0, -12.0, 0.0),
-            Vec3::new(20.0, 12.0, 8.0),
-        )
-        .unwrap();
-        Scene::new(vec![g, b]).unwrap()
-    }
+    use crate::scenario::channel::tests::{factory_scene, spec};
+    use glam::{DVec3, Vec3};
 
     #[test]
     fn twin_adds_known_objects_all_concrete() {

@@ -277,13 +277,14 @@ impl ChannelSpec {
     }
 }
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
     use crate::material::Material;
     use crate::shapes;
     use glam::Vec3;
 
-    fn spec() -> ChannelSpec {
+    /// A `[channel]` table with the paper's defaults around a hall (shared with the comparison's tests).
+    pub(crate) fn spec() -> ChannelSpec {
         toml::from_str(
             r#"
             bs_position = [-45.0, -40.0, 20.0]
@@ -295,7 +296,8 @@ mod tests {
         .unwrap()
     }
 
-    fn factory_scene() -> Scene {
+    /// A yard and a 40 m × 24 m × 8 m hall.
+    pub(crate) fn factory_scene() -> Scene {
         let g = shapes::ground(
             "yard",
             Material::Concrete,
