@@ -17,6 +17,7 @@ pub mod bench;
 pub mod channel;
 pub mod channel_experiment;
 pub mod echo;
+pub mod html;
 pub mod io;
 pub mod knn;
 pub mod linalg;

@@ -7,9 +7,9 @@
 //! by `has_host::channel_experiment::run_channel_experiment` (tracing, matching, statistics), and
 //! its tables and plot data come from `has_host::channel_experiment::exports`; this command loads,
 //! shows progress, renders the Markdown report and the plots and writes the files. Writes into
-//! DIR: `report.json` (key `channel`), `report.md`, `errors.csv` (every matched pair), `ues.csv`
-//! (every UE), `cdf_delay.svg`, `cdf_angles.svg`, `ue_map.svg`, and `twin/` when the twin is
-//! reconstructed here.
+//! DIR: `report.json` (key `channel`), `report.md`, `report.html`, `errors.csv` (every matched
+//! pair), `ues.csv` (every UE), `cdf_delay.svg`, `cdf_angles.svg`, `ue_map.png`, and `twin/` when
+//! the twin is reconstructed here.
 
 use std::path::{Path, PathBuf};
 use std::sync::OnceLock;
@@ -30,6 +30,7 @@ use plotters::style::RGBColor;
 
 use crate::plot::{self, View};
 use crate::reconstruct_cmd::{build_twin, load_scenario};
+use has_host::html::{Layer, LayerData};
 
 /// Options of `channel`.
 #[derive(Args)]
@@ -96,11 +97,12 @@ pub fn run(args: ChannelArgs) -> Result<()> {
         &[
             "report.json",
             "report.md",
+            "report.html",
             "errors.csv",
             "ues.csv",
             "cdf_delay.svg",
             "cdf_angles.svg",
-            "ue_map.svg",
+            "ue_map.png",
         ],
     )?;
     // Checked before a twin is reconstructed.
@@ -113,6 +115,7 @@ pub fn run(args: ChannelArgs) -> Result<()> {
     };
     let twin_s = t.elapsed().as_secs_f64();
     let mesh = read_obj(&twin_path, Some(Material::Concrete)).context("--twin")?;
+    let twin_view = triangle_soup(&mesh);
 
     let info = ChannelRunInfo {
         scenario: scenario_name,
@@ -161,7 +164,46 @@ pub fn run(args: ChannelArgs) -> Result<()> {
         &exp.outcomes,
         spec.bs(),
     )?;
-    plot_ue_map(&args.out.join("ue_map.svg"), &map)?;
+    plot_ue_map(&args.out.join("ue_map.png"), &map)?;
+    let bs = [map.bs];
+    let points = |points, point_px| LayerData::Points { points, point_px };
+    crate::html_report::write(
+        &args.out,
+        &format!("has-sim channel — {}", c.scenario),
+        &c.markdown(),
+        &[
+            Layer {
+                name: "twin mesh",
+                colour: [215, 120, 90],
+                data: LayerData::Mesh(&twin_view),
+            },
+            Layer {
+                name: "true buildings (area samples)",
+                colour: [150, 150, 150],
+                data: points(&map.buildings, 2),
+            },
+            Layer {
+                name: "kept UEs",
+                colour: [200, 40, 40],
+                data: points(&map.kept, 4),
+            },
+            Layer {
+                name: "dropped UEs",
+                colour: [20, 70, 200],
+                data: points(&map.dropped, 4),
+            },
+            Layer {
+                name: "BS",
+                colour: [0, 0, 0],
+                data: points(&bs, 9),
+            },
+        ],
+        &[
+            ("cdf_delay.svg", "Delay error of matched paths"),
+            ("cdf_angles.svg", "Angle errors of matched paths"),
+            ("ue_map.png", "UEs and the BS over the buildings, top view"),
+        ],
+    )?;
 
     let p90 = c
         .all
@@ -192,6 +234,13 @@ pub fn run(args: ChannelArgs) -> Result<()> {
         args.out.display()
     );
     run_dir.finish()
+}
+
+/// The objects' triangles as one mesh, for the 3D view (which welds them).
+pub fn triangle_soup(objects: &[has_host::scene::Object]) -> has_host::mesh::TriMesh {
+    has_host::mesh::TriMesh::from_triangles(
+        objects.iter().flat_map(|o| o.triangles.iter().copied()),
+    )
 }
 
 fn write_text(path: &Path, text: &str) -> Result<()> {

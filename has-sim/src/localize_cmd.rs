@@ -1,7 +1,8 @@
 //! `has-sim localize [SCENARIO] --out DIR [--quick] [--twin MESH.obj]`: the paper's §3 — a
 //! monostatic base station detects and localizes a cylinder crossing the factory yard, with ECA
 //! alone and with the environment prior from the reconstructed mesh; writes `report.json` (key
-//! `localize`), `report.md`, detections PLY and SVG plots (paper Fig. 11 and range–Doppler maps).
+//! `localize`), `report.md`, `report.html`, detections PLY and PNG plots (paper Fig. 11 and
+//! range–Doppler maps).
 //! The run, the report and the files' data are `has_host::localize`'s (`run_localize`,
 //! `LocalizeRunReport`, `localize::outputs`); this command adds progress, Markdown and plots.
 
@@ -21,6 +22,7 @@ use plotters::style::RGBColor;
 
 use crate::plot::{self, View};
 use crate::reconstruct_cmd::{build_twin, load_scenario};
+use has_host::html::{Layer, LayerData};
 
 /// Options of `localize`.
 #[derive(Args)]
@@ -65,14 +67,15 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
         &[
             "report.json",
             "report.md",
+            "report.html",
             "truth.ply",
             "detections_eca.ply",
             "detections_env.ply",
-            "detections_eca_top.svg",
-            "detections_env_top.svg",
-            "detections_top.svg",
-            "detections_side.svg",
-            "rd_*.svg",
+            "detections_eca_top.png",
+            "detections_env_top.png",
+            "detections_top.png",
+            "detections_side.png",
+            "rd_*.png",
         ],
     )?;
     let scene = sc.scene.build()?;
@@ -101,12 +104,13 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
             .unwrap_or_else(|_| ProgressStyle::default_bar())
             .progress_chars("=> "),
     );
+    let twin_view = crate::channel_cmd::triangle_soup(&twin);
     let t1 = Instant::now();
     let result = run_localize(&spec, &scene, twin, &|d, _| bar.set_position(d as u64))?;
     bar.finish_and_clear();
     let run_s = t1.elapsed().as_secs_f64();
 
-    write_outputs(&args, &spec, &result)?;
+    let clouds = write_outputs(&args, &spec, &result)?;
     let mut report = LocalizeRunReport {
         scenario: scenario_name,
         preset: if args.quick { "quick" } else { "default" }.to_string(),
@@ -123,6 +127,41 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
     has_host::io::atomic_write(&args.out.join("report.md"), |w| {
         std::io::Write::write_all(w, md.as_bytes())
     })?;
+    let points = |points, point_px| LayerData::Points { points, point_px };
+    crate::html_report::write(
+        &args.out,
+        &format!("has-sim localize — {}", report.scenario),
+        &md,
+        &[
+            Layer {
+                name: "twin (the prior's buildings)",
+                colour: [215, 120, 90],
+                data: LayerData::Mesh(&twin_view),
+            },
+            Layer {
+                name: "true scattering points",
+                colour: [200, 60, 60],
+                data: points(&clouds.truth, 3),
+            },
+            Layer {
+                name: &clouds.eca_label,
+                colour: [20, 70, 200],
+                data: points(&clouds.eca, 4),
+            },
+            Layer {
+                name: "env detections",
+                colour: [20, 150, 60],
+                data: points(&clouds.env, 4),
+            },
+        ],
+        &[
+            ("detections_eca_top.png", "Without the environment prior"),
+            ("detections_env_top.png", "With the environment prior"),
+            ("detections_top.png", "Both modes, top view"),
+            ("detections_side.png", "Both modes, side view"),
+            ("rd_*.png", "Range–Doppler at the target's beam"),
+        ],
+    )?;
     let (eca, env) = (&report.localize.eca, &report.localize.env);
     let f = |v: Option<f64>| v.map_or("—".to_string(), |x| format!("{x:.3} m"));
     println!(
@@ -143,7 +182,16 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
     run_dir.finish()
 }
 
-fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -> Result<()> {
+/// The clouds [`write_outputs`] wrote: the true scattering points, the best ECA pass's
+/// detections and the environment prior's, with the ECA pass's label.
+struct Clouds {
+    truth: Vec<glam::Vec3>,
+    eca: Vec<glam::Vec3>,
+    env: Vec<glam::Vec3>,
+    eca_label: String,
+}
+
+fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -> Result<Clouds> {
     let truth = r.truth_points();
     save_cloud(&args.out.join("truth.ply"), &truth, vec![])?;
     let save = |file: &str, c: DetectionCloud| -> Result<Vec<glam::Vec3>> {
@@ -162,13 +210,13 @@ fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -
     let env_pts = save("detections_env.ply", r.detection_cloud(r.env_pass))?;
     let eca_label = format!("{} detections", r.passes[r.eca_best]);
     plot::projection(
-        &args.out.join("detections_eca_top.svg"),
+        &args.out.join("detections_eca_top.png"),
         "(a) Detections without the environment prior (best ECA), top view; red: true scattering points",
         View::Top,
         &[("truth", &truth, grey, 1), (&eca_label, &eca_pts, blue, 3)],
     )?;
     plot::projection(
-        &args.out.join("detections_env_top.svg"),
+        &args.out.join("detections_env_top.png"),
         "(b) Detections with the environment prior, top view; red: true scattering points",
         View::Top,
         &[
@@ -177,7 +225,7 @@ fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -
         ],
     )?;
     plot::projection(
-        &args.out.join("detections_top.svg"),
+        &args.out.join("detections_top.png"),
         "(c) Both modes over the true track, top view",
         View::Top,
         &[
@@ -187,7 +235,7 @@ fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -
         ],
     )?;
     plot::projection(
-        &args.out.join("detections_side.svg"),
+        &args.out.join("detections_side.png"),
         "Both modes over the true track, side view from −y",
         View::Side,
         &[
@@ -212,7 +260,7 @@ fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -
         plot::heatmap(
             &args
                 .out
-                .join(format!("rd_{}_{}.svg", m.which.name(), m.stage.name())),
+                .join(format!("rd_{}_{}.png", m.which.name(), m.stage.name())),
             &title,
             ("range (m)", "Doppler (Hz)"),
             (m.range_m[0], m.range_m[1]),
@@ -222,5 +270,10 @@ fn write_outputs(args: &LocalizeArgs, spec: &LocalizeSpec, r: &LocalizeResult) -
             (-5.0, 60.0),
         )?;
     }
-    Ok(())
+    Ok(Clouds {
+        truth,
+        eca: eca_pts,
+        env: env_pts,
+        eca_label,
+    })
 }

@@ -11,6 +11,7 @@ mod bench_dsp;
 mod bench_mesh;
 mod bench_raytrace;
 mod channel_cmd;
+mod html_report;
 mod localize_cmd;
 mod mesh_cmd;
 mod observability_cmd;

@@ -1,10 +1,31 @@
-//! Plots written as SVG (plotters): projections of point clouds over a reference cloud. Files are written atomically (temporary file, then rename).
+//! Plots: projections of point clouds over a reference cloud and heat maps as PNG (dense
+//! views: a file's size follows its pixels, not its points), empirical CDFs as SVG (line plots).
+//! One drawing per figure, over any plotters backend ([`Figure`]); the file name's extension
+//! picks the format ([`write_figure`]). Text is set in a subset of DejaVu Sans compiled into the
+//! binary (`assets/`, its licence beside it), so a PNG looks the same on every machine, fonts
+//! installed or not. Files are written atomically (temporary file, then rename).
 
 use std::path::Path;
+use std::sync::Once;
 
 use anyhow::{Context, Result};
 use glam::Vec3;
+use plotters::coord::Shift;
 use plotters::prelude::*;
+
+/// DejaVu Sans, cut to Latin-1 letters and the symbols the titles use (see `assets/`).
+const FONT: &[u8] = include_bytes!("../assets/DejaVuSans-subset.ttf");
+
+/// Makes [`FONT`] plotters' "sans-serif", once per process.
+fn register_font() -> Result<()> {
+    static ONCE: Once = Once::new();
+    let mut result = Ok(());
+    ONCE.call_once(|| {
+        result = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT)
+            .map_err(|_| anyhow::anyhow!("the compiled-in plot font does not parse"));
+    });
+    result
+}
 
 /// Which two coordinates a projection shows.
 #[derive(Clone, Copy, Debug)]
@@ -22,13 +43,55 @@ fn coords(v: View, p: Vec3) -> (f32, f32) {
     }
 }
 
-fn write_atomic(path: &Path, svg: String) -> Result<()> {
-    has_host::io::atomic_write(path, |w| std::io::Write::write_all(w, svg.as_bytes()))
-        .with_context(|| format!("writing {}", path.display()))
+/// A figure drawn the same way on any plotters backend.
+trait Figure {
+    /// Pixel size.
+    fn size(&self) -> (u32, u32);
+    /// Draws onto `root` (already filled white).
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()>
+    where
+        DB::ErrorType: 'static;
 }
 
-/// A projection of `layers` (each `(label, points, colour)`, drawn in order) with equal axis
-/// scales, written to `path`.
+/// Draws `fig` into `path`: PNG (8-bit RGB) when the name ends in `.png`, else SVG.
+fn write_figure(path: &Path, fig: &impl Figure) -> Result<()> {
+    register_font()?;
+    let (w, h) = fig.size();
+    let ctx = || format!("writing {}", path.display());
+    if path.extension().is_some_and(|e| e == "png") {
+        let mut rgb = vec![0u8; w as usize * h as usize * 3];
+        {
+            let root = BitMapBackend::with_buffer(&mut rgb, (w, h)).into_drawing_area();
+            root.fill(&WHITE)?;
+            fig.draw(&root)?;
+            root.present()?;
+        }
+        has_host::io::atomic_write(path, |file| {
+            let mut enc = png::Encoder::new(file, w, h);
+            enc.set_color(png::ColorType::Rgb);
+            enc.set_depth(png::BitDepth::Eight);
+            let mut writer = enc.write_header().map_err(std::io::Error::other)?;
+            writer
+                .write_image_data(&rgb)
+                .map_err(std::io::Error::other)?;
+            writer.finish().map_err(std::io::Error::other)
+        })
+        .with_context(ctx)
+    } else {
+        let mut svg = String::new();
+        {
+            let root = SVGBackend::with_string(&mut svg, (w, h)).into_drawing_area();
+            root.fill(&WHITE)?;
+            fig.draw(&root)?;
+            root.present()?;
+        }
+        has_host::io::atomic_write(path, |file| std::io::Write::write_all(file, svg.as_bytes()))
+            .with_context(ctx)
+    }
+}
+
+/// A projection of `layers` (each `(label, points, colour, radius in pixels)`, drawn in order)
+/// with equal axis scales, written to `path` (PNG or SVG by its extension).
 pub fn projection(
     path: &Path,
     title: &str,
@@ -55,29 +118,55 @@ pub fn projection(
     );
     let px_w = 1000u32;
     let px_h = ((px_w as f32) * h / w).clamp(200.0, 1000.0) as u32 + 80;
-    let mut svg = String::new();
+    write_figure(
+        path,
+        &Projection {
+            title,
+            view,
+            layers,
+            x: (lo.0 - pad, hi.0 + pad),
+            y: (lo.1 - pad, hi.1 + pad),
+            size: (px_w, px_h),
+        },
+    )
+}
+
+struct Projection<'a> {
+    title: &'a str,
+    view: View,
+    layers: &'a [(&'a str, &'a [Vec3], RGBColor, u32)],
+    x: (f32, f32),
+    y: (f32, f32),
+    size: (u32, u32),
+}
+
+impl Figure for Projection<'_> {
+    fn size(&self) -> (u32, u32) {
+        self.size
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()>
+    where
+        DB::ErrorType: 'static,
     {
-        let root = SVGBackend::with_string(&mut svg, (px_w, px_h)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let (xl, yl) = match view {
+        let (xl, yl) = match self.view {
             View::Top => ("x (m)", "y (m)"),
             View::Side => ("x (m)", "z (m)"),
         };
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 18))
+        let mut chart = ChartBuilder::on(root)
+            .caption(self.title, ("sans-serif", 18))
             .margin(10)
             .x_label_area_size(35)
             .y_label_area_size(45)
-            .build_cartesian_2d(lo.0 - pad..hi.0 + pad, lo.1 - pad..hi.1 + pad)?;
+            .build_cartesian_2d(self.x.0..self.x.1, self.y.0..self.y.1)?;
         chart
             .configure_mesh()
             .x_desc(xl)
             .y_desc(yl)
             .light_line_style(WHITE)
             .draw()?;
-        for (label, pts, colour, size) in layers {
-            let c = *colour;
-            let s = *size;
+        for (label, pts, colour, size) in self.layers {
+            let (c, s, view) = (*colour, *size, self.view);
             chart
                 .draw_series(pts.iter().map(|p| {
                     let (a, b) = coords(view, *p);
@@ -91,15 +180,14 @@ pub fn projection(
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .draw()?;
-        root.present()?;
+        Ok(())
     }
-    write_atomic(path, svg)
 }
 
 /// Empirical CDFs (paper Fig. 9 style): one step curve per series `(label, values, colour)`,
 /// x from 0 to the largest 98th percentile of the series (at least `x_min_max`; larger values run
 /// off the right edge), y the fraction of values ≤ x; a dashed line marks the 90th percentile
-/// level. Written to `path`.
+/// level. Written to `path` (SVG or PNG by its extension).
 pub fn cdf(
     path: &Path,
     title: &str,
@@ -122,19 +210,43 @@ pub fn cdf(
     } else {
         1.0
     };
-    let mut svg = String::new();
+    write_figure(
+        path,
+        &Cdf {
+            title,
+            x_label,
+            series,
+            x_max,
+        },
+    )
+}
+
+struct Cdf<'a> {
+    title: &'a str,
+    x_label: &'a str,
+    series: &'a [(&'a str, &'a [f64], RGBColor)],
+    x_max: f64,
+}
+
+impl Figure for Cdf<'_> {
+    fn size(&self) -> (u32, u32) {
+        (800, 560)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()>
+    where
+        DB::ErrorType: 'static,
     {
-        let root = SVGBackend::with_string(&mut svg, (800, 560)).into_drawing_area();
-        root.fill(&WHITE)?;
-        let mut chart = ChartBuilder::on(&root)
-            .caption(title, ("sans-serif", 18))
+        let x_max = self.x_max;
+        let mut chart = ChartBuilder::on(root)
+            .caption(self.title, ("sans-serif", 18))
             .margin(12)
             .x_label_area_size(40)
             .y_label_area_size(50)
             .build_cartesian_2d(0.0..x_max, 0.0..1.0)?;
         chart
             .configure_mesh()
-            .x_desc(x_label)
+            .x_desc(self.x_label)
             .y_desc("CDF")
             .draw()?;
         chart.draw_series(DashedLineSeries::new(
@@ -143,7 +255,7 @@ pub fn cdf(
             4,
             BLACK.mix(0.5).stroke_width(1),
         ))?;
-        for (label, values, colour) in series {
+        for (label, values, colour) in self.series {
             let mut s: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
             s.sort_by(f64::total_cmp);
             let n = s.len().max(1) as f64;
@@ -170,14 +282,13 @@ pub fn cdf(
             .background_style(WHITE.mix(0.8))
             .border_style(BLACK)
             .draw()?;
-        root.present()?;
+        Ok(())
     }
-    write_atomic(path, svg)
 }
 
 /// A heat map of `values` (row-major `[iy][ix]`, `nx · ny` cells, in dB) over the axis ranges
 /// `x` and `y`, clipped to `[vmin, vmax]` and coloured from dark blue (vmin) through green to
-/// yellow (vmax), written to `path`. Used for range–Doppler maps.
+/// yellow (vmax), written to `path` (PNG or SVG by its extension). Used for range–Doppler maps.
 #[allow(clippy::too_many_arguments)]
 pub fn heatmap(
     path: &Path,
@@ -196,9 +307,35 @@ pub fn heatmap(
             values.len()
         );
     }
-    let colour = |v: f32| -> RGBColor {
+    write_figure(
+        path,
+        &Heatmap {
+            title,
+            labels: (x_label, y_label),
+            x,
+            y,
+            cells: (nx, ny),
+            values,
+            range: (vmin, vmax),
+        },
+    )
+}
+
+struct Heatmap<'a> {
+    title: &'a str,
+    labels: (&'a str, &'a str),
+    x: (f64, f64),
+    y: (f64, f64),
+    cells: (usize, usize),
+    values: &'a [f32],
+    range: (f32, f32),
+}
+
+impl Heatmap<'_> {
+    /// A viridis-like ramp through four anchors, `range.0` to `range.1`.
+    fn colour(&self, v: f32) -> RGBColor {
+        let (vmin, vmax) = self.range;
         let t = ((v - vmin) / (vmax - vmin).max(1e-6)).clamp(0.0, 1.0);
-        // A viridis-like ramp through four anchors.
         let anchors = [
             (68.0, 1.0, 84.0),
             (59.0, 82.0, 139.0),
@@ -211,30 +348,38 @@ pub fn heatmap(
         let (a, b) = (anchors[i], anchors[i + 1]);
         let l = |p: f32, q: f32| (p + (q - p) * f) as u8;
         RGBColor(l(a.0, b.0), l(a.1, b.1), l(a.2, b.2))
-    };
-    let mut svg = String::new();
+    }
+}
+
+impl Figure for Heatmap<'_> {
+    fn size(&self) -> (u32, u32) {
+        (900, 600)
+    }
+
+    fn draw<DB: DrawingBackend>(&self, root: &DrawingArea<DB, Shift>) -> Result<()>
+    where
+        DB::ErrorType: 'static,
     {
-        let root = SVGBackend::with_string(&mut svg, (900, 600)).into_drawing_area();
-        root.fill(&WHITE)?;
+        let (x, y, (nx, ny), (vmin, vmax)) = (self.x, self.y, self.cells, self.range);
         let (main, bar) = root.split_horizontally(800);
         let mut chart = ChartBuilder::on(&main)
-            .caption(title, ("sans-serif", 16))
+            .caption(self.title, ("sans-serif", 16))
             .margin(10)
             .x_label_area_size(35)
             .y_label_area_size(50)
             .build_cartesian_2d(x.0..x.1, y.0..y.1)?;
         chart
             .configure_mesh()
-            .x_desc(x_label)
-            .y_desc(y_label)
+            .x_desc(self.labels.0)
+            .y_desc(self.labels.1)
             .disable_mesh()
             .draw()?;
         let (dx, dy) = ((x.1 - x.0) / nx as f64, (y.1 - y.0) / ny as f64);
         chart.draw_series((0..ny).flat_map(|iy| {
             (0..nx).map(move |ix| {
-                let v = values[iy * nx + ix];
+                let v = self.values[iy * nx + ix];
                 let (x0, y0) = (x.0 + ix as f64 * dx, y.0 + iy as f64 * dy);
-                Rectangle::new([(x0, y0), (x0 + dx, y0 + dy)], colour(v).filled())
+                Rectangle::new([(x0, y0), (x0 + dx, y0 + dy)], self.colour(v).filled())
             })
         }))?;
         let mut cb = ChartBuilder::on(&bar)
@@ -252,10 +397,9 @@ pub fn heatmap(
             let v0 = vmin as f64 + i as f64 * h;
             Rectangle::new(
                 [(0.0, v0), (1.0, v0 + h)],
-                colour(v0 as f32 + 0.5 * h as f32).filled(),
+                self.colour(v0 as f32 + 0.5 * h as f32).filled(),
             )
         }))?;
-        root.present()?;
+        Ok(())
     }
-    write_atomic(path, svg)
 }

@@ -1,12 +1,13 @@
 //! `has-sim reconstruct [SCENARIO] --out DIR`: the paper's §1 end to end — imaging of every
 //! base station–terminal pair through has-dsp, fusion, and the point-cloud metrics; writes
-//! `report.json`, `report.md`, PLY clouds and SVG plots into DIR.
+//! `report.json`, `report.md`, `report.html`, PLY clouds and PNG plots into DIR.
 
 use std::path::{Path, PathBuf};
 use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
+use has_host::html::{Layer, LayerData};
 use has_host::imaging::{self, RunOptions};
 use has_host::io::{save_cloud, save_mesh};
 use has_host::reconstruction::{
@@ -128,7 +129,7 @@ fn load(args: &ReconstructArgs) -> Result<(Scenario, String)> {
 
 /// `mesh.obj`, `mesh.ply`, `mesh_input.ply` (the oriented and weighted input of the mesher, so
 /// that `has-sim mesh mesh_input.ply` reproduces and can vary the surface stage without
-/// rerunning the imaging), `mesh_top.svg`, `mesh_side.svg`.
+/// rerunning the imaging), `mesh_top.png`, `mesh_side.png`.
 fn write_mesh_files(out: &Path, rec: &Reconstruction, surf: &imaging::Surface) -> Result<()> {
     let n = &surf.normals;
     save_cloud(
@@ -150,8 +151,8 @@ fn write_mesh_files(out: &Path, rec: &Reconstruction, surf: &imaging::Surface) -
     let grey = RGBColor(170, 170, 170);
     let red = RGBColor(200, 40, 40);
     for (file, view, title) in [
-        ("mesh_top.svg", View::Top, "Reconstructed mesh, area samples (red), over the true surfaces (grey), top view"),
-        ("mesh_side.svg", View::Side, "Reconstructed mesh, area samples (red), over the true surfaces (grey), side view from −y"),
+        ("mesh_top.png", View::Top, "Reconstructed mesh, area samples (red), over the true surfaces (grey), top view"),
+        ("mesh_side.png", View::Side, "Reconstructed mesh, area samples (red), over the true surfaces (grey), side view from −y"),
     ] {
         plot::projection(
             &out.join(file),
@@ -163,7 +164,7 @@ fn write_mesh_files(out: &Path, rec: &Reconstruction, surf: &imaging::Surface) -
     Ok(())
 }
 
-/// `fused.ply`, `pair_*.ply`, `ground_truth.ply`, `fused_top.svg`, `fused_side.svg`.
+/// `fused.ply`, `pair_*.ply`, `ground_truth.ply`, `fused_top.png`, `fused_side.png`.
 fn write_cloud_files(out: &Path, rec: &Reconstruction) -> Result<()> {
     let (world, result) = (&rec.world, &rec.result);
     for (p, img) in result.plans.iter().zip(&result.images) {
@@ -188,12 +189,12 @@ fn write_cloud_files(out: &Path, rec: &Reconstruction) -> Result<()> {
     let blue = RGBColor(20, 70, 200);
     for (file, view, title) in [
         (
-            "fused_top.svg",
+            "fused_top.png",
             View::Top,
             "Fused imaging point cloud (blue) over the true surfaces (grey), top view",
         ),
         (
-            "fused_side.svg",
+            "fused_side.png",
             View::Side,
             "Fused imaging point cloud (blue) over the true surfaces (grey), side view from −y",
         ),
@@ -209,6 +210,56 @@ fn write_cloud_files(out: &Path, rec: &Reconstruction) -> Result<()> {
         )?;
     }
     Ok(())
+}
+
+/// `report.html`: the report, the truth, the fused cloud and the mesh in 3D, the plots.
+fn write_html(
+    out: &Path,
+    report: &ReconstructRunReport,
+    md: &str,
+    (truth, fused): (&[glam::Vec3], &[glam::Vec3]),
+    mesh: Option<&has_host::mesh::TriMesh>,
+) -> Result<()> {
+    let mut layers = vec![
+        Layer {
+            name: "ground truth (area samples)",
+            colour: [150, 150, 150],
+            data: LayerData::Points {
+                points: truth,
+                point_px: 2,
+            },
+        },
+        Layer {
+            name: "fused cloud",
+            colour: [20, 70, 200],
+            data: LayerData::Points {
+                points: fused,
+                point_px: 3,
+            },
+        },
+    ];
+    if let Some(mesh) = mesh {
+        layers.push(Layer {
+            name: "mesh",
+            colour: [215, 120, 90],
+            data: LayerData::Mesh(mesh),
+        });
+    }
+    crate::html_report::write(
+        out,
+        &format!("has-sim reconstruct — {}", report.scenario),
+        md,
+        &layers,
+        &[
+            ("fused_top.png", "Fused cloud over the truth, top view"),
+            ("fused_side.png", "Fused cloud over the truth, side view"),
+            ("mesh_top.png", "Mesh area samples over the truth, top view"),
+            (
+                "mesh_side.png",
+                "Mesh area samples over the truth, side view",
+            ),
+        ],
+    )
 }
 
 /// Runs `reconstruct` on `scenario` (default: the bundled factory), with the quick preset if
@@ -285,19 +336,20 @@ fn check_pairs_run(dir: &Path, scenario: &str, preset: &str) -> Result<()> {
 }
 
 /// The files `reconstruct` writes into its output directory ([`crate::run_dir`]).
-pub const OUTPUTS: [&str; 12] = [
+pub const OUTPUTS: [&str; 13] = [
     "report.json",
     "report.md",
+    "report.html",
     "fused.ply",
     "pair_*.ply",
     "ground_truth.ply",
     "mesh.obj",
     "mesh.ply",
     "mesh_input.ply",
-    "fused_top.svg",
-    "fused_side.svg",
-    "mesh_top.svg",
-    "mesh_side.svg",
+    "fused_top.png",
+    "fused_side.png",
+    "mesh_top.png",
+    "mesh_side.png",
 ];
 
 /// Runs the command; returns what it wrote to `report.json`.
@@ -391,6 +443,13 @@ fn execute(
     has_host::io::atomic_write(&args.out.join("report.md"), |w| {
         std::io::Write::write_all(w, md.as_bytes())
     })?;
+    write_html(
+        &args.out,
+        &report,
+        &md,
+        (&rec.world.truth, &rec.result.fused.points),
+        rec.surface.as_ref().map(|s| &s.mesh),
+    )?;
     let r = &report.reconstruction;
     if let Some(m) = &r.mesh {
         println!(

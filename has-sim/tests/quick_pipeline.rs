@@ -78,17 +78,19 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
         &out,
         &[
             "report.md",
+            "report.html",
             "fused.ply",
             "ground_truth.ply",
-            "fused_top.svg",
-            "fused_side.svg",
+            "fused_top.png",
+            "fused_side.png",
             "pair_BS1-UAV.ply",
             "mesh.obj",
             "mesh.ply",
-            "mesh_top.svg",
+            "mesh_top.png",
             "mesh_input.ply",
         ],
     );
+    common::assert_html_renders(&out);
 }
 
 #[test]
@@ -227,12 +229,14 @@ fn quick_channel_prediction_reports_errors_beams_and_plots() {
         &out,
         &[
             "report.md",
+            "report.html",
             "cdf_delay.svg",
             "cdf_angles.svg",
-            "ue_map.svg",
+            "ue_map.png",
             "twin/mesh.obj",
         ],
     );
+    common::assert_html_renders(&out);
 }
 
 #[test]
@@ -276,16 +280,18 @@ fn quick_localization_meets_its_documented_bounds() {
         &out,
         &[
             "report.md",
+            "report.html",
             "truth.ply",
             "detections_eca.ply",
             "detections_env.ply",
-            "detections_top.svg",
-            "detections_eca_top.svg",
-            "detections_env_top.svg",
-            "rd_slow_before.svg",
-            "rd_slow_eca.svg",
-            "rd_slow_env.svg",
+            "detections_top.png",
+            "detections_eca_top.png",
+            "detections_env_top.png",
+            "rd_slow_before.png",
+            "rd_slow_eca.png",
+            "rd_slow_env.png",
         ],
     );
+    common::assert_html_renders(&out);
     let _ = std::fs::remove_dir_all(&out);
 }

@@ -9,6 +9,7 @@
 //! [`repair`] makes the written mesh pass the vertex-manifold check as well.
 
 pub mod band;
+mod cluster;
 mod grid;
 pub mod iso;
 pub mod normals;
@@ -24,6 +25,7 @@ use rayon::prelude::*;
 use crate::knn::GeometryError;
 use crate::metrics;
 
+pub use cluster::{cluster_vertices, simplified_to};
 pub use normals::{estimate_normals, Orientation};
 pub use poisson::{
     depth_for_cell, screened_poisson, screened_poisson_weighted, support_density, trim,
@@ -64,6 +66,16 @@ pub struct Topology {
 }
 
 impl TriMesh {
+    /// A mesh of separate triangles (three vertices per face, nothing shared), counter-clockwise
+    /// as given.
+    pub fn from_triangles(triangles: impl IntoIterator<Item = [Vec3; 3]>) -> Self {
+        let vertices: Vec<Vec3> = triangles.into_iter().flatten().collect();
+        let faces = (0..vertices.len() as u32 / 3)
+            .map(|f| [3 * f, 3 * f + 1, 3 * f + 2])
+            .collect();
+        Self { vertices, faces }
+    }
+
     /// Number of vertices.
     pub fn vertex_count(&self) -> usize {
         self.vertices.len()
