@@ -12,6 +12,14 @@
 //!
 //! With this sign convention both tend to −1 at grazing incidence, `R∥ = −R⊥` at normal incidence,
 //! and `R∥` vanishes at the Brewster angle `tan θ_B = √εr` of a lossless medium.
+//!
+//! **A slab** of thickness `d` in air (ITU-R P.2040-3 eqs. 43–44, as Sionna RT applies every
+//! material's `thickness`; [`slab_coefficients`]): with `R` the interface coefficient above and
+//! `q = (2π d / λ)·√(η − sin²θ)`, the multiple internal reflections sum to
+//! `R_slab = R·(1 − e^{−j2q}) / (1 − R²·e^{−j2q})` and `T_slab = (1 − R²)·e^{−jq} / (1 − R²·e^{−j2q})`,
+//! per polarisation. As `d` grows in a lossy medium, `e^{−j2q} → 0` and `R_slab → R` (the
+//! half-space, [`fresnel_reflection`]); a lossless slab reflects nothing at `d = mλ/(2√(η − sin²θ))`
+//! and conserves energy, `|R_slab|² + |T_slab|² = 1`.
 
 use num_complex::Complex64;
 
@@ -33,6 +41,58 @@ pub fn fresnel_reflection(eta: Complex64, cos_theta_i: f64) -> Fresnel {
     let te = (c - root) / (c + root);
     let tm = (eta * c - root) / (eta * c + root);
     Fresnel { te, tm }
+}
+
+/// Reflection and transmission coefficients of a slab ([`slab_coefficients`]).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Slab {
+    /// Reflection, both polarisations.
+    pub reflection: Fresnel,
+    /// Transmission through the slab (the field leaving its far face against the incident one at
+    /// its near face), both polarisations.
+    pub transmission: Fresnel,
+}
+
+/// The coefficients of a slab of thickness `thickness_m` and complex relative permittivity
+/// `eta` in air, for incidence with `cos θ = cos_theta_i` (clamped to \[0, 1\]) at wavelength
+/// `wavelength_m` (module docs; ITU-R P.2040-3 eqs. 43–44).
+pub fn slab_coefficients(
+    eta: Complex64,
+    cos_theta_i: f64,
+    thickness_m: f64,
+    wavelength_m: f64,
+) -> Slab {
+    let c = cos_theta_i.clamp(0.0, 1.0);
+    let root = (eta - (1.0 - c * c)).sqrt();
+    let q = root * (2.0 * std::f64::consts::PI * thickness_m / wavelength_m);
+    let minus_j = Complex64::new(0.0, -1.0);
+    let (e1, e2) = ((minus_j * q).exp(), (minus_j * 2.0 * q).exp());
+    let r = fresnel_reflection(eta, c);
+    let slab = |r: Complex64| {
+        let den = 1.0 - r * r * e2;
+        (r * (1.0 - e2) / den, (1.0 - r * r) * e1 / den)
+    };
+    let ((rte, tte), (rtm, ttm)) = (slab(r.te), slab(r.tm));
+    Slab {
+        reflection: Fresnel { te: rte, tm: rtm },
+        transmission: Fresnel { te: tte, tm: ttm },
+    }
+}
+
+/// The reflection coefficients of a face of a material of complex relative permittivity `eta`
+/// and thickness `thickness_m` (`None`: infinitely thick) at wavelength `wavelength_m`: the slab's
+/// ([`slab_coefficients`]) or the half-space's ([`fresnel_reflection`]). What the tracer and the
+/// echo synthesis call for every reflection.
+pub fn reflection(
+    eta: Complex64,
+    cos_theta_i: f64,
+    thickness_m: Option<f64>,
+    wavelength_m: f64,
+) -> Fresnel {
+    match thickness_m {
+        Some(d) => slab_coefficients(eta, cos_theta_i, d, wavelength_m).reflection,
+        None => fresnel_reflection(eta, cos_theta_i),
+    }
 }
 
 /// Free-space amplitude factor `λ / (4π d)` of a path of length `d` (metres); its square is the
@@ -84,6 +144,56 @@ mod tests {
         let eta = Material::Metal.complex_permittivity(10e9);
         let f = fresnel_reflection(eta, 0.7);
         assert!(f.te.norm() > 0.999 && f.tm.norm() > 0.999);
+    }
+
+    #[test]
+    fn a_thick_lossy_slab_reflects_like_the_half_space() {
+        let lambda = crate::wavelength_m(10e9);
+        let eta = Material::Concrete.complex_permittivity(10e9);
+        for cos_i in [0.1, 0.5, 0.9, 1.0] {
+            let half = fresnel_reflection(eta, cos_i);
+            let slab = slab_coefficients(eta, cos_i, 10.0, lambda).reflection;
+            assert!((slab.te - half.te).norm() < 1e-9, "{cos_i}");
+            assert!((slab.tm - half.tm).norm() < 1e-9, "{cos_i}");
+        }
+    }
+
+    #[test]
+    fn a_lossless_slab_conserves_energy_and_vanishes_at_half_wave_thickness() {
+        let lambda = 0.03;
+        let eta = Complex64::new(4.0, 0.0);
+        for cos_i in [0.2, 0.6, 1.0] {
+            for d in [0.004, 0.011, 0.05, 0.1] {
+                let s = slab_coefficients(eta, cos_i, d, lambda);
+                for (r, t) in [
+                    (s.reflection.te, s.transmission.te),
+                    (s.reflection.tm, s.transmission.tm),
+                ] {
+                    let e = r.norm_sqr() + t.norm_sqr();
+                    assert!((e - 1.0).abs() < 1e-12, "cos {cos_i} d {d}: {e}");
+                }
+            }
+            // q = π: the two faces' reflections cancel.
+            let sin2 = 1.0 - cos_i * cos_i;
+            let d = lambda / (2.0 * (4.0 - sin2).sqrt());
+            let s = slab_coefficients(eta, cos_i, d, lambda);
+            assert!(s.reflection.te.norm() < 1e-12 && s.reflection.tm.norm() < 1e-12);
+        }
+    }
+
+    #[test]
+    fn a_lossy_slab_passes_less_than_it_receives_and_a_thin_one_less_reflects() {
+        let lambda = crate::wavelength_m(3.5e9);
+        let eta = Material::Brick.complex_permittivity(3.5e9);
+        let s = slab_coefficients(eta, 0.8, 0.1, lambda);
+        for (r, t) in [
+            (s.reflection.te, s.transmission.te),
+            (s.reflection.tm, s.transmission.tm),
+        ] {
+            assert!(r.norm_sqr() + t.norm_sqr() < 1.0);
+        }
+        let thin = slab_coefficients(eta, 0.8, 1e-5, lambda).reflection;
+        assert!(thin.te.norm() < 1e-2 && thin.tm.norm() < 1e-2, "{thin:?}");
     }
 
     #[test]

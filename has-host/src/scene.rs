@@ -41,6 +41,11 @@ pub struct Object {
     pub name: String,
     /// Radio material of every face.
     pub material: Material,
+    /// Thickness of the material, metres: each face reflects as a slab of it
+    /// ([`crate::propagation::slab_coefficients`], as Sionna RT applies a material's
+    /// `thickness`); `None`, an infinitely thick material (the half-space,
+    /// [`crate::propagation::fresnel_reflection`]).
+    pub thickness_m: Option<f64>,
     /// Faces, counter-clockwise seen from outside, in metres.
     pub triangles: Vec<[Vec3; 3]>,
 }
@@ -368,6 +373,7 @@ mod tests {
 
     fn plate() -> Scene {
         Scene::new(vec![Object {
+            thickness_m: None,
             name: "plate".into(),
             material: Material::Concrete,
             triangles: quad(0.0, 10.0),
@@ -482,6 +488,7 @@ mod tests {
         let mut tris = quad(0.0, 1.0);
         tris[1][2].x = f32::NAN;
         let err = Scene::new(vec![Object {
+            thickness_m: None,
             name: "wall".into(),
             material: Material::Brick,
             triangles: tris,

@@ -385,6 +385,7 @@ pub fn building(
         );
     }
     Ok(Object {
+        thickness_m: None,
         name,
         material,
         triangles: tris,
@@ -485,6 +486,7 @@ pub fn ground(
         }
     }
     Ok(Object {
+        thickness_m: None,
         name,
         material,
         triangles: tris,
@@ -557,6 +559,7 @@ pub fn cylinder(
         }
     }
     Ok(Object {
+        thickness_m: None,
         name,
         material,
         triangles: tris,

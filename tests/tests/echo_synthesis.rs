@@ -178,11 +178,13 @@ fn floor_and_wall() -> Scene {
     let w = |y: f32, z: f32| Vec3::new(0.0, y, z);
     Scene::new(vec![
         Object {
+            thickness_m: None,
             name: "floor".into(),
             material: Material::Concrete,
             triangles: quad(0.0, -10.0, 10.0, -10.0, 10.0),
         },
         Object {
+            thickness_m: None,
             name: "wall".into(),
             material: Material::Brick,
             triangles: vec![
@@ -252,6 +254,7 @@ fn back_faces_contribute_nothing_unless_two_sided() {
 #[test]
 fn sampling_density_is_even_and_areas_add_up() {
     let scene = Scene::new(vec![Object {
+        thickness_m: None,
         name: "plate".into(),
         material: Material::Concrete,
         triangles: quad(0.0, 0.0, 20.0, 0.0, 20.0),
@@ -302,6 +305,7 @@ fn small_triangles_keep_the_expected_count() {
         ]);
     }
     let scene = Scene::new(vec![Object {
+        thickness_m: None,
         name: "gravel".into(),
         material: Material::MediumDryGround,
         triangles: tris,

@@ -48,11 +48,13 @@ fn hall_scene() -> Result<Scene, BenchError> {
     );
     Ok(Scene::new(vec![
         Object {
+            thickness_m: None,
             name: "hall".into(),
             material: Material::Concrete,
             triangles: hall,
         },
         Object {
+            thickness_m: None,
             name: "ground".into(),
             material: Material::MediumDryGround,
             triangles: ground.to_vec(),

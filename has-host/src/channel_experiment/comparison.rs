@@ -154,6 +154,7 @@ mod tests {
     fn twin_adds_known_objects_all_concrete() {
         let scene = factory_scene();
         let mesh = vec![Object {
+            thickness_m: None,
             name: "mesh".into(),
             material: Material::Glass,
             triangles: vec![[Vec3::ZERO, Vec3::X, Vec3::Y]],

@@ -254,6 +254,7 @@ mod tests {
     fn the_ue_map_splits_the_ues_and_samples_only_the_unknown_objects() {
         // The known ground at z = 0 and a 10 m × 10 m wall in the plane x = 5.
         let ground = Object {
+            thickness_m: None,
             name: "ground".into(),
             material: Material::Concrete,
             triangles: vec![[
@@ -269,6 +270,7 @@ mod tests {
             Vec3::new(5.0, 0.0, 10.0),
         );
         let wall = Object {
+            thickness_m: None,
             name: "wall".into(),
             material: Material::Concrete,
             triangles: vec![[a, b, c], [a, c, d]],

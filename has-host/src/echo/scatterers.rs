@@ -47,6 +47,9 @@ pub struct ScattererSet {
     pub points: Vec<Scatterer>,
     /// Material of each object of the scene the set was sampled from.
     pub object_materials: Vec<Material>,
+    /// Thickness of each object's material, metres (`None`: infinitely thick), as
+    /// [`crate::scene::Object::thickness_m`].
+    pub object_thickness_m: Vec<Option<f64>>,
     /// When true either side of a face is its front (for meshes with inconsistent winding);
     /// default false: only the winding-order side scatters.
     pub two_sided: bool,
@@ -143,6 +146,7 @@ impl ScattererSet {
         Ok(ScattererSet {
             points: per_tri.into_iter().flatten().collect(),
             object_materials: scene.objects.iter().map(|o| o.material).collect(),
+            object_thickness_m: scene.objects.iter().map(|o| o.thickness_m).collect(),
             two_sided: false,
             density_per_m2,
             seed,

@@ -22,7 +22,7 @@ use rayon::prelude::*;
 use super::kernel::{floor_fast, floor_small, FLOOR_SMALL_MAX};
 use super::noise::{noise_stream, ComplexGaussian};
 use super::{check_pos, EchoConfig, EchoError, PulseKernel, ScattererSet};
-use crate::propagation::{free_space_amplitude, fresnel_reflection};
+use crate::propagation::{free_space_amplitude, reflection};
 use has_dsp::geometry::C_M_PER_S;
 
 /// A free point scatterer: its amplitude is used as given (no spreading, no facing test); only the
@@ -287,7 +287,8 @@ impl EchoSynth {
                 let rv = d.length();
                 let cos_i = (n.dot(d) / rv).clamp(0.0, 1.0);
                 let eta = *etas.get(s.object as usize)?;
-                let f = fresnel_reflection(eta, cos_i);
+                let thickness = set.object_thickness_m.get(s.object as usize).copied()?;
+                let f = reflection(eta, cos_i, thickness, lambda);
                 let refl2 = 0.5 * (f.te.norm_sqr() + f.tm.norm_sqr());
                 let a = tx_leg(refl2, cos_i, s.area_m2 as f64, rv, lambda);
                 Some((pos, n, rv, a))

@@ -7,6 +7,11 @@
 //! - Sionna 0.x (Blender exports): `<bsdf type="twosided" id="mat-itu_concrete">` with a visual
 //!   `diffuse` inside — the material comes from the id (`mat-` and `itu_` prefixes optional).
 //!
+//! Thickness: each radio material reflects as a slab of its `<float name="thickness">` (metres;
+//! `inf` for an infinitely thick material, the half-space), [`SIONNA_DEFAULT_THICKNESS_M`] when
+//! it gives none or is a legacy material — what Sionna RT does with the same file
+//! ([`crate::propagation::slab_coefficients`]).
+//!
 //! A custom `radio-material` (εr, σ given directly) is not one of the ITU materials and is
 //! reported as unsupported. Shapes: `ply` and `obj` (filename relative to the XML file's
 //! directory), `rectangle` (the square [−1, 1]² in z = 0, facing +z) and `cube` ([−1, 1]³), each
@@ -27,6 +32,10 @@ use super::{read_bytes, MeshIoError};
 use crate::material::Material;
 use crate::scene::Object;
 use crate::shapes;
+
+/// The thickness Sionna RT gives a radio material that states none (`sionna.rt.constants.
+/// DEFAULT_THICKNESS`), metres.
+pub const SIONNA_DEFAULT_THICKNESS_M: f64 = 0.1;
 
 /// Reads a Mitsuba XML scene and the meshes it references.
 pub fn read_mitsuba(path: &Path) -> Result<Vec<Object>, MeshIoError> {
@@ -156,7 +165,12 @@ impl Ctx<'_, '_> {
             .and_then(|c| c.attribute("value"))
     }
 
-    fn bsdf_material(&self, b: Node, id: Option<&str>) -> Result<Material, MeshIoError> {
+    /// A bsdf's material and thickness (metres; `None`: infinitely thick, the half-space).
+    fn bsdf_material(
+        &self,
+        b: Node,
+        id: Option<&str>,
+    ) -> Result<(Material, Option<f64>), MeshIoError> {
         let ty = b.attribute("type").unwrap_or("");
         let id = b.attribute("id").or(id);
         let label = id.unwrap_or("(inline)");
@@ -165,13 +179,14 @@ impl Ctx<'_, '_> {
                 let v = self.prop(b, "string", "type").ok_or_else(|| {
                     self.err(b, format!("bsdf '{label}' lacks <string name=\"type\">"))
                 })?;
-                material_from_tag(v).ok_or_else(|| {
+                let material = material_from_tag(v).ok_or_else(|| {
                     MeshIoError::unknown_material(
                         self.path,
                         v,
                         format!("bsdf '{label}', line {}", self.line(b)),
                     )
-                })
+                })?;
+                Ok((material, self.thickness(b, label)?))
             }
             "radio-material" => Err(MeshIoError::Unsupported {
                 path: self.path.to_path_buf(),
@@ -196,14 +211,39 @@ impl Ctx<'_, '_> {
                         format!("bsdf of type '{ty}' has no id naming a material"),
                     ));
                 };
-                material_from_tag(id).ok_or_else(|| {
+                let material = material_from_tag(id).ok_or_else(|| {
                     MeshIoError::unknown_material(
                         self.path,
                         id,
                         format!("bsdf id, line {}", self.line(b)),
                     )
-                })
+                })?;
+                // Sionna gives a legacy material its default thickness.
+                Ok((material, Some(SIONNA_DEFAULT_THICKNESS_M)))
             }
+        }
+    }
+
+    /// `<float name="thickness">` of an ITU radio material: positive metres, `inf` for the
+    /// half-space; absent, Sionna's default.
+    fn thickness(&self, b: Node, label: &str) -> Result<Option<f64>, MeshIoError> {
+        let Some(t) = b
+            .children()
+            .find(|c| c.has_tag_name("float") && c.attribute("name") == Some("thickness"))
+        else {
+            return Ok(Some(SIONNA_DEFAULT_THICKNESS_M));
+        };
+        let text = self.attr(t, "value")?;
+        match text.trim().parse::<f64>() {
+            Ok(d) if d == f64::INFINITY => Ok(None),
+            Ok(d) if d > 0.0 && d.is_finite() => Ok(Some(d)),
+            _ => Err(self.err(
+                t,
+                format!(
+                    "bsdf '{label}' thickness: '{text}' is not a positive number of metres \
+                     (or inf for an infinitely thick material)"
+                ),
+            )),
         }
     }
 }
@@ -237,17 +277,18 @@ pub fn parse_mitsuba(text: &str, path: &Path) -> Result<Vec<Object>, MeshIoError
         let ty = cx.attr(shape, "type")?;
         let line = cx.line(shape);
         // Material: a reference or an inline bsdf.
-        let material = if let Some(r) = shape.children().find(|c| c.has_tag_name("ref")) {
-            let id = cx.attr(r, "id")?;
-            let b = bsdfs
-                .get(id)
-                .ok_or_else(|| cx.err(r, format!("shape refers to undefined bsdf '{id}'")))?;
-            cx.bsdf_material(*b, None)?
-        } else if let Some(b) = shape.children().find(|c| c.has_tag_name("bsdf")) {
-            cx.bsdf_material(b, None)?
-        } else {
-            return Err(cx.err(shape, "shape has no material (<ref> or <bsdf>)".into()));
-        };
+        let (material, thickness_m) =
+            if let Some(r) = shape.children().find(|c| c.has_tag_name("ref")) {
+                let id = cx.attr(r, "id")?;
+                let b = bsdfs
+                    .get(id)
+                    .ok_or_else(|| cx.err(r, format!("shape refers to undefined bsdf '{id}'")))?;
+                cx.bsdf_material(*b, None)?
+            } else if let Some(b) = shape.children().find(|c| c.has_tag_name("bsdf")) {
+                cx.bsdf_material(b, None)?
+            } else {
+                return Err(cx.err(shape, "shape has no material (<ref> or <bsdf>)".into()));
+            };
         let filename = cx.prop(shape, "string", "filename");
         let (default_name, mut tris) = match ty {
             "ply" | "obj" => {
@@ -332,6 +373,7 @@ pub fn parse_mitsuba(text: &str, path: &Path) -> Result<Vec<Object>, MeshIoError
             name = format!("{base}#{k}");
         }
         objects.push(Object {
+            thickness_m,
             name,
             material,
             triangles: tris,
@@ -404,10 +446,26 @@ mod tests {
         let v = objs[1].triangles[0][1];
         assert!((v - Vec3::new(10.0, 2.0, 5.0)).length() < 1e-5, "{v}");
         assert_eq!(objs[2].material, Material::Metal);
+        // Thickness as given (0.2 m), else Sionna's default, legacy materials included.
+        assert_eq!(objs[0].thickness_m, Some(SIONNA_DEFAULT_THICKNESS_M));
+        assert_eq!(objs[1].thickness_m, Some(0.2));
+        assert_eq!(objs[2].thickness_m, Some(SIONNA_DEFAULT_THICKNESS_M));
         // Cube [−1,1]³ scaled by (2,3,4): volume 8·24 = 192, still outward.
         let vol = signed_volume(&objs[2].triangles);
         assert!((vol - 192.0).abs() < 1e-3, "{vol}");
         assert!((surface_area(&objs[2].triangles) - 8.0 * (6.0 + 8.0 + 12.0)).abs() < 1e-3);
+    }
+
+    #[test]
+    fn an_infinite_thickness_is_the_half_space() {
+        let d = tmp_dir("mitsuba-inf");
+        write_tri_ply(&d, "a.ply");
+        let xml = r#"<scene><bsdf type="itu-radio-material" id="g"><string name="type" value="glass"/>
+  <float name="thickness" value="inf"/></bsdf>
+  <shape type="ply"><string name="filename" value="meshes/a.ply"/><ref id="g"/></shape></scene>"#;
+        let p = d.join("s.xml");
+        std::fs::write(&p, xml).unwrap();
+        assert_eq!(read_mitsuba(&p).unwrap()[0].thickness_m, None);
     }
 
     #[test]
@@ -458,6 +516,13 @@ mod tests {
                 "shape type 'sphere'",
             ),
             ("<scene/>".to_string(), "no <shape>"),
+            (
+                format!(
+                    "<scene><bsdf type=\"itu-radio-material\" id=\"w\"><string name=\"type\" value=\"wood\"/><float name=\"thickness\" value=\"-0.1\"/></bsdf>{}</scene>",
+                    shape("<ref id=\"w\"/>", "meshes/a.ply")
+                ),
+                "bsdf 'w' thickness: '-0.1' is not a positive number of metres",
+            ),
         ];
         for (xml, want) in cases {
             let p = d.join("s.xml");

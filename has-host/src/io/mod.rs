@@ -205,6 +205,7 @@ pub fn load_objects(path: &Path, material: Option<Material>) -> Result<Vec<Objec
             })?;
             let data = ply::read_ply(path)?;
             vec![Object {
+                thickness_m: None,
                 name: file_stem(path),
                 material: m,
                 triangles: data.triangles(),

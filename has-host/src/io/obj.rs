@@ -183,6 +183,7 @@ pub fn parse_obj(
             _ => g.name.clone(),
         };
         objects.push(Object {
+            thickness_m: None,
             name,
             material: m,
             triangles: g.tris.clone(),

@@ -21,7 +21,7 @@ use rayon::prelude::*;
 use super::LocalizeError;
 use crate::echo::noise::{noise_stream, ComplexGaussian};
 use crate::echo::{bistatic_amplitude, ScattererSet};
-use crate::propagation::fresnel_reflection;
+use crate::propagation::reflection;
 use has_dsp::geometry::C_M_PER_S;
 
 /// The radio parameters the synthesis needs.
@@ -91,7 +91,12 @@ pub fn synth_symbol(
         let eta = *etas
             .get(s.object as usize)
             .ok_or(LocalizeError::Internal("target material index"))?;
-        let f = fresnel_reflection(eta, cos_i);
+        let thickness = set
+            .object_thickness_m
+            .get(s.object as usize)
+            .copied()
+            .ok_or(LocalizeError::Internal("target material index"))?;
+        let f = reflection(eta, cos_i, thickness, lambda);
         prep.push(Prep {
             pos,
             normal,

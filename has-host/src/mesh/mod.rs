@@ -192,6 +192,7 @@ impl TriMesh {
         material: crate::Material,
     ) -> Result<crate::Object, GeometryError> {
         Ok(crate::Object {
+            thickness_m: None,
             name: name.to_string(),
             material,
             triangles: metrics::indexed_triangles(&self.vertices, &self.faces)?,

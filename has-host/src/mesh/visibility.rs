@@ -73,6 +73,7 @@ pub fn visibility_consistent(
         .map(|f| f.map(|v| surface.vertices[v as usize]))
         .collect();
     let scene = Scene::new(vec![Object {
+        thickness_m: None,
         name: "surface".into(),
         material: Material::Concrete,
         triangles,

@@ -261,11 +261,13 @@ mod tests {
         let r = |x: f32, y: f32| Vec3::new(x, y, 8.0);
         let scene = Scene::new(vec![
             crate::scene::Object {
+                thickness_m: None,
                 name: "wall".into(),
                 material: crate::material::Material::Concrete,
                 triangles: vec![[a, b, c], [a, c, d]],
             },
             crate::scene::Object {
+                thickness_m: None,
                 name: "roof".into(),
                 material: crate::material::Material::Concrete,
                 triangles: vec![

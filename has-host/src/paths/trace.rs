@@ -14,7 +14,7 @@ use super::{
     CandidateMode, Interaction, Path, PathError, Polarization, TracerConfig, MAX_COORD_M,
     MAX_ORDER, MAX_SBR_RAYS,
 };
-use crate::propagation::{free_space_amplitude, fresnel_reflection};
+use crate::propagation::{free_space_amplitude, reflection};
 use crate::scene::{Scene, SURFACE_EPS_M};
 use crate::C_M_PER_S;
 
@@ -24,6 +24,8 @@ pub struct Tracer<'a> {
     facets: Facets,
     config: TracerConfig,
     eta: Vec<Complex64>,
+    /// Per object: its material's thickness (a slab), `None` for the half-space.
+    thickness_m: Vec<Option<f64>>,
     wavelength_m: f64,
 }
 
@@ -165,12 +167,14 @@ impl<'a> Tracer<'a> {
             .iter()
             .map(|o| o.material.complex_permittivity(f))
             .collect();
+        let thickness_m = scene.objects.iter().map(|o| o.thickness_m).collect();
         Ok(Tracer {
             scene,
             facets,
             wavelength_m: crate::wavelength_m(f),
             config,
             eta,
+            thickness_m,
         })
     }
 
@@ -409,7 +413,8 @@ impl<'a> Tracer<'a> {
             let n = fc.normal;
             let k_out = (verts[i + 2] - verts[i + 1]).normalize();
             let cos_i = k_in.dot(n).abs();
-            let r = fresnel_reflection(self.eta[fc.object as usize], cos_i);
+            let o = fc.object as usize;
+            let r = reflection(self.eta[o], cos_i, self.thickness_m[o], self.wavelength_m);
             let sx = k_in.cross(n);
             let s = if sx.length() > 1e-12 {
                 sx.normalize()
