@@ -47,6 +47,18 @@ pub struct PathsArgs {
     /// Print JSON `{"paths":[…]}` instead of a table.
     #[arg(long)]
     pub json: bool,
+    /// Also write the paths as NumPy arrays into this directory (`tau.npy`, `a.npy`, `jones.npy`,
+    /// the angles, `num_paths.npy`, `rx.npy`: one row per receiver, one column per path;
+    /// `has_host::paths::arrays`).
+    #[arg(long)]
+    pub npy: Option<PathBuf>,
+    /// With --npy: the channel frequency response on this many subcarriers (`cfr.npy`, at the
+    /// baseband offsets of `freqs_hz.npy`, ascending, centred on the carrier).
+    #[arg(long, requires = "npy")]
+    pub cfr_subcarriers: Option<usize>,
+    /// Subcarrier spacing of --cfr-subcarriers, kHz.
+    #[arg(long, default_value_t = 30.0, requires = "cfr_subcarriers")]
+    pub cfr_spacing_khz: f64,
 }
 
 /// Parses `"X,Y,Z"` ([`report::parse_point`]) for flag `flag`.
@@ -79,6 +91,26 @@ fn traced<T>(r: Result<T, PathError>) -> anyhow::Result<T> {
     })
 }
 
+/// The baseband offsets of --cfr-subcarriers at --cfr-spacing-khz: `(k − N/2)·Δf`, k = 0..N.
+fn cfr_grid(args: &PathsArgs) -> anyhow::Result<Option<Vec<f64>>> {
+    let Some(n) = args.cfr_subcarriers else {
+        return Ok(None);
+    };
+    if n == 0 || n > 1 << 20 {
+        anyhow::bail!("--cfr-subcarriers: {n} is not in 1..={}", 1 << 20);
+    }
+    let df = args.cfr_spacing_khz * 1e3;
+    if !(df.is_finite() && df > 0.0) {
+        anyhow::bail!(
+            "--cfr-spacing-khz: {} is not a positive spacing",
+            args.cfr_spacing_khz
+        );
+    }
+    Ok(Some(
+        (0..n).map(|k| (k as f64 - (n / 2) as f64) * df).collect(),
+    ))
+}
+
 /// Runs `has-sim paths`.
 pub fn run(args: PathsArgs) -> anyhow::Result<()> {
     let tx = parse_point("--tx", &args.tx)?;
@@ -102,6 +134,7 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
     if args.rays == 0 {
         anyhow::bail!("--rays: 0 (need at least 1)");
     }
+    let freqs = cfr_grid(&args)?;
     // Flattened into one line: the scene errors already name the file and the cause.
     let scene =
         has_host::scenario::load_scene(&args.scene).map_err(|e| anyhow::anyhow!("--scene: {e}"))?;
@@ -148,6 +181,12 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
         );
     }
     let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
+    if let Some(dir) = &args.npy {
+        std::fs::create_dir_all(dir)
+            .map_err(|e| anyhow::anyhow!("--npy: {}: {e}", dir.display()))?;
+        has_host::paths::arrays::write_path_arrays(dir, &rxs, &all, freqs.as_deref())
+            .map_err(|e| anyhow::anyhow!("--npy: {e}"))?;
+    }
     if args.json {
         // Compact, keys in the records' order (not through `serde_json::Value`, which sorts).
         let text = if args.rx.is_some() {

@@ -138,3 +138,120 @@ fn many_receivers_in_one_call_give_each_receivers_own_paths() {
     assert!(err.contains("line 2: '1,2' is not X,Y,Z"), "{err}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+/// An `.npy` file's shape and its data as `f64` words (`<f8`/`<i8` one per element, `<c16` two),
+/// read as NumPy writes version 1.0 headers.
+fn read_npy(path: &std::path::Path) -> (String, Vec<usize>, Vec<u8>) {
+    let b = std::fs::read(path).expect("npy file");
+    assert_eq!(&b[..8], b"\x93NUMPY\x01\x00", "{}", path.display());
+    let n = u16::from_le_bytes([b[8], b[9]]) as usize;
+    let header = std::str::from_utf8(&b[10..10 + n]).expect("header");
+    let descr = header.split('\'').nth(3).expect("descr").to_string();
+    let shape = header
+        .split("'shape': (")
+        .nth(1)
+        .and_then(|s| s.split(')').next())
+        .expect("shape")
+        .split(',')
+        .filter_map(|d| d.trim().parse().ok())
+        .collect();
+    (descr, shape, b[10 + n..].to_vec())
+}
+
+fn f64s(bytes: &[u8]) -> Vec<f64> {
+    bytes
+        .chunks(8)
+        .map(|c| f64::from_le_bytes(c.try_into().expect("8 bytes")))
+        .collect()
+}
+
+#[test]
+fn the_npy_arrays_hold_the_json_s_paths_and_their_frequency_response() {
+    let dir = std::path::Path::new(env!("CARGO_TARGET_TMPDIR")).join("paths-npy");
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    let rx = dir.join("rx.csv");
+    std::fs::write(&rx, "0,-30,10\n20,-35,2\n").unwrap();
+    let npy = dir.join("arrays");
+    let (ok, json, err) = paths(&[
+        "--tx",
+        "-20,-30,12",
+        "--rx-file",
+        rx.to_str().unwrap(),
+        "--json",
+        "--npy",
+        npy.to_str().unwrap(),
+        "--cfr-subcarriers",
+        "16",
+        "--cfr-spacing-khz",
+        "120",
+    ]);
+    assert!(ok, "{err}");
+    let v: serde_json::Value = serde_json::from_str(&json).expect("json");
+    let receivers = v["receivers"].as_array().expect("receivers");
+    let (d, shape, counts) = read_npy(&npy.join("num_paths.npy"));
+    assert_eq!((d.as_str(), shape.as_slice()), ("<i8", &[2][..]));
+    let counts: Vec<usize> = counts
+        .chunks(8)
+        .map(|c| i64::from_le_bytes(c.try_into().unwrap()) as usize)
+        .collect();
+    let p = *counts.iter().max().unwrap();
+    assert!(p > 0);
+    let (d, shape, tau) = read_npy(&npy.join("tau.npy"));
+    assert_eq!((d.as_str(), shape.as_slice()), ("<f8", &[2, p][..]));
+    let (d, shape, a) = read_npy(&npy.join("a.npy"));
+    assert_eq!((d.as_str(), shape.as_slice()), ("<c16", &[2, p][..]));
+    let (_, shape, _) = read_npy(&npy.join("jones.npy"));
+    assert_eq!(shape, [2, p, 2, 2]);
+    let (tau, a) = (f64s(&tau), f64s(&a));
+    let (_, _, freqs) = read_npy(&npy.join("freqs_hz.npy"));
+    let freqs = f64s(&freqs);
+    assert_eq!(freqs.len(), 16);
+    assert_eq!((freqs[0], freqs[8]), (-8.0 * 120e3, 0.0));
+    let (d, shape, cfr) = read_npy(&npy.join("cfr.npy"));
+    assert_eq!((d.as_str(), shape.as_slice()), ("<c16", &[2, 16][..]));
+    let cfr = f64s(&cfr);
+    for (r, rec) in receivers.iter().enumerate() {
+        let list = rec["paths"].as_array().expect("paths");
+        assert_eq!(list.len(), counts[r]);
+        for i in 0..p {
+            let t = tau[r * p + i];
+            match list.get(i) {
+                Some(path) => {
+                    let ns = path["delay_ns"].as_f64().unwrap();
+                    assert!((t * 1e9 - ns).abs() < 1e-9 * ns, "{t} s vs {ns} ns");
+                    let re_im = [path["a"][0].as_f64().unwrap(), path["a"][1].as_f64().unwrap()];
+                    // JSON's decimal text reads back to within an ulp.
+                    let (ar, ai) = (a[2 * (r * p + i)], a[2 * (r * p + i) + 1]);
+                    let tol = 1e-14 * ar.hypot(ai);
+                    assert!((ar - re_im[0]).abs() <= tol && (ai - re_im[1]).abs() <= tol);
+                }
+                None => assert!(t.is_nan()),
+            }
+        }
+        // H(f) = Σ a e^{−j2πfτ} over the receiver's paths.
+        for (k, &f) in freqs.iter().enumerate() {
+            let (mut re, mut im) = (0.0, 0.0);
+            for i in 0..counts[r] {
+                let (ar, ai, t) = (a[2 * (r * p + i)], a[2 * (r * p + i) + 1], tau[r * p + i]);
+                let ph = -2.0 * std::f64::consts::PI * (f * t).fract();
+                re += ar * ph.cos() - ai * ph.sin();
+                im += ar * ph.sin() + ai * ph.cos();
+            }
+            let (hr, hi) = (cfr[2 * (r * 16 + k)], cfr[2 * (r * 16 + k) + 1]);
+            let scale = re.hypot(im).max(1e-300);
+            assert!((hr - re).hypot(hi - im) < 1e-9 * scale, "rx {r} f {f}");
+        }
+    }
+    let (ok, _, err) = paths(&[
+        "--tx",
+        "-20,-30,12",
+        "--rx",
+        "0,-30,10",
+        "--npy",
+        npy.to_str().unwrap(),
+        "--cfr-subcarriers",
+        "0",
+    ]);
+    assert!(!ok && err.starts_with("has-sim: error: --cfr-subcarriers: 0 is not in"), "{err}");
+}

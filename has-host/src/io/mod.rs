@@ -18,6 +18,7 @@ use crate::mesh::TriMesh;
 use crate::scene::Object;
 
 pub mod mitsuba;
+pub mod npy;
 pub mod obj;
 pub mod ply;
 

@@ -52,6 +52,7 @@
 //!
 //! Submodules, one step each: [`facets`], [`candidates`], [`trace`] (the [`Tracer`]).
 
+pub mod arrays;
 pub mod candidates;
 pub mod facets;
 pub mod report;
@@ -298,10 +299,13 @@ impl Path {
                 Interaction::Los => (None, None),
             })
             .unzip();
+        let c = |z: Complex64| [z.re, z.im];
         PathRecord {
             delay_ns: self.delay_s * 1e9,
             gain_db: self.gain_db(),
             phase_rad: self.a.arg(),
+            a: c(self.a),
+            jones: self.jones.map(|row| row.map(c)),
             aod_deg: self.aod.to_degrees(),
             zod_deg: self.zod.to_degrees(),
             aoa_deg: self.aoa.to_degrees(),
@@ -324,6 +328,11 @@ pub struct PathRecord<'a> {
     pub gain_db: f64,
     /// Phase of the amplitude, rad in (−π, π].
     pub phase_rad: f64,
+    /// The amplitude [`Path::a`] as `[re, im]` (Sionna RT's `cir(normalize_delays=False)` `a`).
+    pub a: [f64; 2],
+    /// The full polarimetric amplitude [`Path::jones`], `jones[rx][tx] = [re, im]`, index 0 = θ̂,
+    /// 1 = φ̂.
+    pub jones: [[[f64; 2]; 2]; 2],
     /// Azimuth of departure, degrees.
     pub aod_deg: f64,
     /// Zenith of departure, degrees.
