@@ -181,6 +181,10 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
         );
     }
     let names: Vec<String> = scene.objects.iter().map(|o| o.name.clone()).collect();
+    let search = report::Search {
+        rays: (!args.exhaustive).then_some(args.rays),
+        candidate_sequences: cand.len(),
+    };
     if let Some(dir) = &args.npy {
         std::fs::create_dir_all(dir)
             .map_err(|e| anyhow::anyhow!("--npy: {}: {e}", dir.display()))?;
@@ -190,14 +194,23 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
     if args.json {
         // Compact, keys in the records' order (not through `serde_json::Value`, which sorts).
         let text = if args.rx.is_some() {
-            serde_json::to_string(&PathsReport::new(&all[0], &names))?
+            serde_json::to_string(&PathsReport::new(&all[0], &names).with_search(search))?
         } else {
-            serde_json::to_string(&ReceiversReport::new(&rxs, &all, &names))?
+            serde_json::to_string(&ReceiversReport::new(&rxs, &all, &names).with_search(search))?
         };
         println!("{text}");
         return Ok(());
     }
     let many = args.rx.is_none();
+    eprintln!(
+        "{} candidate facet sequences from {}",
+        search.candidate_sequences,
+        search
+            .rays
+            .map_or("the exhaustive enumeration".to_string(), |r| format!(
+                "{r} shoot-and-bounce rays (--rays)"
+            ))
+    );
     println!(
         "{}{:>4} {:>11} {:>9} {:>10} {:>8} {:>8} {:>8} {:>8}  interactions",
         if many {

@@ -189,6 +189,9 @@ fn the_npy_arrays_hold_the_json_s_paths_and_their_frequency_response() {
     assert!(ok, "{err}");
     let v: serde_json::Value = serde_json::from_str(&json).expect("json");
     let receivers = v["receivers"].as_array().expect("receivers");
+    // The search is reported: the default ray count, the candidates it found.
+    assert_eq!(v["search"]["rays"].as_u64(), Some(200_000));
+    assert!(v["search"]["candidate_sequences"].as_u64() > Some(0));
     let (d, shape, counts) = read_npy(&npy.join("num_paths.npy"));
     assert_eq!((d.as_str(), shape.as_slice()), ("<i8", &[2][..]));
     let counts: Vec<usize> = counts
@@ -220,7 +223,10 @@ fn the_npy_arrays_hold_the_json_s_paths_and_their_frequency_response() {
                 Some(path) => {
                     let ns = path["delay_ns"].as_f64().unwrap();
                     assert!((t * 1e9 - ns).abs() < 1e-9 * ns, "{t} s vs {ns} ns");
-                    let re_im = [path["a"][0].as_f64().unwrap(), path["a"][1].as_f64().unwrap()];
+                    let re_im = [
+                        path["a"][0].as_f64().unwrap(),
+                        path["a"][1].as_f64().unwrap(),
+                    ];
                     // JSON's decimal text reads back to within an ulp.
                     let (ar, ai) = (a[2 * (r * p + i)], a[2 * (r * p + i) + 1]);
                     let tol = 1e-14 * ar.hypot(ai);
@@ -253,5 +259,8 @@ fn the_npy_arrays_hold_the_json_s_paths_and_their_frequency_response() {
         "--cfr-subcarriers",
         "0",
     ]);
-    assert!(!ok && err.starts_with("has-sim: error: --cfr-subcarriers: 0 is not in"), "{err}");
+    assert!(
+        !ok && err.starts_with("has-sim: error: --cfr-subcarriers: 0 is not in"),
+        "{err}"
+    );
 }

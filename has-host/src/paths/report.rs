@@ -120,14 +120,28 @@ fn records<'a>(paths: &[Path], objects: &'a [String]) -> Vec<PathRecord<'a>> {
     paths.iter().map(|p| p.record(objects)).collect()
 }
 
-/// The paths to one receiver, serialised as `{"paths":[…]}`: each path a [`PathRecord`] (keys
-/// in its documented order: `delay_ns, gain_db, phase_rad, aod_deg, zod_deg, aoa_deg, zoa_deg,
-/// interactions, objects, points`; per interaction its kind, the name of the object it meets and
-/// its point `[x, y, z]` in metres, `null` for line of sight).
+/// How a transmitter's candidate facet sequences were found (`"search"` of the reports).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Search {
+    /// Shoot-and-bounce rays launched from the transmitter; `None` for the exhaustive
+    /// enumeration.
+    pub rays: Option<usize>,
+    /// Candidate facet sequences found (each traced to every receiver).
+    pub candidate_sequences: usize,
+}
+
+/// The paths to one receiver, serialised as `{"paths":[…], "search":{…}}`: each path a
+/// [`PathRecord`] (keys in its documented order: `delay_ns, gain_db, phase_rad, a, jones,
+/// aod_deg, zod_deg, aoa_deg, zoa_deg, interactions, objects, points`; per interaction its kind,
+/// the name of the object it meets and its point `[x, y, z]` in metres, `null` for line of
+/// sight), and the [`Search`] when given.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct PathsReport<'a> {
     /// The paths, by delay.
     pub paths: Vec<PathRecord<'a>>,
+    /// How the candidates were found.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub search: Option<Search>,
 }
 
 impl<'a> PathsReport<'a> {
@@ -135,7 +149,14 @@ impl<'a> PathsReport<'a> {
     pub fn new(paths: &[Path], objects: &'a [String]) -> Self {
         PathsReport {
             paths: records(paths, objects),
+            search: None,
         }
+    }
+
+    /// The report with how its candidates were found.
+    pub fn with_search(mut self, search: Search) -> Self {
+        self.search = Some(search);
+        self
     }
 }
 
@@ -148,11 +169,15 @@ pub struct ReceiverPaths<'a> {
     pub paths: Vec<PathRecord<'a>>,
 }
 
-/// The paths to many receivers, serialised as `{"receivers":[{"rx":[x,y,z],"paths":[…]}, …]}`.
+/// The paths to many receivers, serialised as
+/// `{"receivers":[{"rx":[x,y,z],"paths":[…]}, …], "search":{…}}`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ReceiversReport<'a> {
     /// Per receiver, in the given order.
     pub receivers: Vec<ReceiverPaths<'a>>,
+    /// How the candidates were found (once, for every receiver).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub search: Option<Search>,
 }
 
 impl<'a> ReceiversReport<'a> {
@@ -168,7 +193,14 @@ impl<'a> ReceiversReport<'a> {
                     paths: records(paths, objects),
                 })
                 .collect(),
+            search: None,
         }
+    }
+
+    /// The report with how its candidates were found.
+    pub fn with_search(mut self, search: Search) -> Self {
+        self.search = Some(search);
+        self
     }
 }
 
