@@ -30,7 +30,7 @@ use plotters::style::RGBColor;
 
 use crate::plot::{self, View};
 use crate::reconstruct_cmd::{build_twin, load_scenario};
-use has_host::html::{Layer, LayerData};
+use has_host::html::{Layer, MESH_COLOUR};
 
 /// Options of `channel`.
 #[derive(Args)]
@@ -166,37 +166,21 @@ pub fn run(args: ChannelArgs) -> Result<()> {
     )?;
     plot_ue_map(&args.out.join("ue_map.png"), &map)?;
     let bs = [map.bs];
-    let points = |points, point_px| LayerData::Points { points, point_px };
     crate::html_report::write(
         &args.out,
         &format!("has-sim channel — {}", c.scenario),
         &c.markdown(),
         &[
-            Layer {
-                name: "twin mesh",
-                colour: [215, 120, 90],
-                data: LayerData::Mesh(&twin_view),
-            },
-            Layer {
-                name: "true buildings (area samples)",
-                colour: [150, 150, 150],
-                data: points(&map.buildings, 2),
-            },
-            Layer {
-                name: "kept UEs",
-                colour: [200, 40, 40],
-                data: points(&map.kept, 4),
-            },
-            Layer {
-                name: "dropped UEs",
-                colour: [20, 70, 200],
-                data: points(&map.dropped, 4),
-            },
-            Layer {
-                name: "BS",
-                colour: [0, 0, 0],
-                data: points(&bs, 9),
-            },
+            Layer::mesh("twin mesh", MESH_COLOUR, &twin_view),
+            Layer::points(
+                "true buildings (area samples)",
+                [150, 150, 150],
+                &map.buildings,
+                2,
+            ),
+            Layer::points("kept UEs", [200, 40, 40], &map.kept, 4),
+            Layer::points("dropped UEs", [20, 70, 200], &map.dropped, 4),
+            Layer::points("BS", [0, 0, 0], &bs, 9),
         ],
         &[
             ("cdf_delay.svg", "Delay error of matched paths"),

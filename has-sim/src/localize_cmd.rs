@@ -22,7 +22,7 @@ use plotters::style::RGBColor;
 
 use crate::plot::{self, View};
 use crate::reconstruct_cmd::{build_twin, load_scenario};
-use has_host::html::{Layer, LayerData};
+use has_host::html::{Layer, MESH_COLOUR};
 
 /// Options of `localize`.
 #[derive(Args)]
@@ -127,32 +127,15 @@ pub fn run(args: LocalizeArgs) -> Result<()> {
     has_host::io::atomic_write(&args.out.join("report.md"), |w| {
         std::io::Write::write_all(w, md.as_bytes())
     })?;
-    let points = |points, point_px| LayerData::Points { points, point_px };
     crate::html_report::write(
         &args.out,
         &format!("has-sim localize — {}", report.scenario),
         &md,
         &[
-            Layer {
-                name: "twin (the prior's buildings)",
-                colour: [215, 120, 90],
-                data: LayerData::Mesh(&twin_view),
-            },
-            Layer {
-                name: "true scattering points",
-                colour: [200, 60, 60],
-                data: points(&clouds.truth, 3),
-            },
-            Layer {
-                name: &clouds.eca_label,
-                colour: [20, 70, 200],
-                data: points(&clouds.eca, 4),
-            },
-            Layer {
-                name: "env detections",
-                colour: [20, 150, 60],
-                data: points(&clouds.env, 4),
-            },
+            Layer::mesh("twin (the prior's buildings)", MESH_COLOUR, &twin_view),
+            Layer::points("true scattering points", [200, 60, 60], &clouds.truth, 3),
+            Layer::points(&clouds.eca_label, [20, 70, 200], &clouds.eca, 4),
+            Layer::points("env detections", [20, 150, 60], &clouds.env, 4),
         ],
         &[
             ("detections_eca_top.png", "Without the environment prior"),

@@ -7,7 +7,7 @@ use std::time::Instant;
 
 use anyhow::{Context, Result};
 use clap::Args;
-use has_host::html::{Layer, LayerData};
+use has_host::html::{Layer, MESH_COLOUR};
 use has_host::imaging::{self, RunOptions};
 use has_host::io::{save_cloud, save_mesh};
 use has_host::reconstruction::{
@@ -221,29 +221,11 @@ fn write_html(
     mesh: Option<&has_host::mesh::TriMesh>,
 ) -> Result<()> {
     let mut layers = vec![
-        Layer {
-            name: "ground truth (area samples)",
-            colour: [150, 150, 150],
-            data: LayerData::Points {
-                points: truth,
-                point_px: 2,
-            },
-        },
-        Layer {
-            name: "fused cloud",
-            colour: [20, 70, 200],
-            data: LayerData::Points {
-                points: fused,
-                point_px: 3,
-            },
-        },
+        Layer::points("ground truth (area samples)", [150, 150, 150], truth, 2),
+        Layer::points("fused cloud", [20, 70, 200], fused, 3),
     ];
     if let Some(mesh) = mesh {
-        layers.push(Layer {
-            name: "mesh",
-            colour: [215, 120, 90],
-            data: LayerData::Mesh(mesh),
-        });
+        layers.push(Layer::mesh("mesh", MESH_COLOUR, mesh));
     }
     crate::html_report::write(
         out,

@@ -79,6 +79,29 @@ pub struct Layer<'a> {
     pub data: LayerData<'a>,
 }
 
+/// The colour the reports give a reconstructed mesh or twin.
+pub const MESH_COLOUR: [u8; 3] = [215, 120, 90];
+
+impl<'a> Layer<'a> {
+    /// A point layer drawn `point_px` pixels wide.
+    pub fn points(name: &'a str, colour: [u8; 3], points: &'a [Vec3], point_px: u32) -> Self {
+        Self {
+            name,
+            colour,
+            data: LayerData::Points { points, point_px },
+        }
+    }
+
+    /// A mesh layer.
+    pub fn mesh(name: &'a str, colour: [u8; 3], mesh: &'a TriMesh) -> Self {
+        Self {
+            name,
+            colour,
+            data: LayerData::Mesh(mesh),
+        }
+    }
+}
+
 /// A report page under construction ([`Page::new`], the sections in order, [`Page::finish`]).
 #[derive(Clone, Debug, Default)]
 pub struct Page {
