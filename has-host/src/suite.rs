@@ -152,6 +152,9 @@ pub struct SuiteRow {
     pub imaging_s: Option<f64>,
     /// Peak resident memory during the site's run, MiB.
     pub peak_rss_mib: Option<f64>,
+    /// The seed the site was run with in place of its scenario's `imaging.seed` (`None`: the
+    /// scenario's own).
+    pub seed: Option<u64>,
 }
 
 impl SuiteRow {
@@ -174,6 +177,7 @@ impl SuiteRow {
             observable_pct: Some(r.imaging.ground_truth.observable_pct),
             imaging_s: Some(r.timings_s.imaging),
             peak_rss_mib,
+            seed: None,
         }
     }
 
@@ -210,6 +214,77 @@ pub fn run_site<E: Display>(
     }
 }
 
+/// Mean, smallest and largest of a figure over the runs of one site.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Spread {
+    /// Arithmetic mean.
+    pub mean: f64,
+    /// Smallest value.
+    pub min: f64,
+    /// Largest value.
+    pub max: f64,
+}
+
+impl Spread {
+    /// The spread of the finite values of `xs` (`None` when there is none).
+    pub fn of(xs: impl IntoIterator<Item = f64>) -> Option<Self> {
+        let v: Vec<f64> = xs.into_iter().filter(|x| x.is_finite()).collect();
+        (!v.is_empty()).then(|| Spread {
+            mean: v.iter().sum::<f64>() / v.len() as f64,
+            min: v.iter().copied().fold(f64::INFINITY, f64::min),
+            max: v.iter().copied().fold(f64::NEG_INFINITY, f64::max),
+        })
+    }
+}
+
+/// One site's figures over its runs with several seeds (`has-sim suite --seeds N`): how much of
+/// a figure belongs to the site and how much to one draw of its scatterers and noise.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SeedSpread {
+    /// Site name.
+    pub site: String,
+    /// Runs that finished (failed runs are left out).
+    pub runs: usize,
+    /// √Chamfer distance of the fused cloud, m.
+    pub cloud_sqrt_cd_m: Option<Spread>,
+    /// F-score at 1.5 m of the fused cloud, %.
+    pub cloud_fscore_1_5m: Option<Spread>,
+    /// √Chamfer distance of the mesh, m.
+    pub mesh_sqrt_cd_m: Option<Spread>,
+    /// F-score at 1.5 m of the mesh, %.
+    pub mesh_fscore_1_5m: Option<Spread>,
+}
+
+/// Per site that was run with more than one seed, in the order of its first row: the spread of
+/// its finished runs' figures.
+pub fn seed_spreads(rows: &[SuiteRow]) -> Vec<SeedSpread> {
+    let mut names: Vec<&str> = Vec::new();
+    for r in rows {
+        if r.seed.is_some() && !names.contains(&r.site.as_str()) {
+            names.push(&r.site);
+        }
+    }
+    names
+        .into_iter()
+        .filter_map(|name| {
+            let runs: Vec<&SuiteRow> = rows
+                .iter()
+                .filter(|r| r.site == name && r.ok && r.seed.is_some())
+                .collect();
+            let spread =
+                |f: fn(&SuiteRow) -> Option<f64>| Spread::of(runs.iter().filter_map(|r| f(r)));
+            (runs.len() > 1).then(|| SeedSpread {
+                site: name.to_string(),
+                runs: runs.len(),
+                cloud_sqrt_cd_m: spread(|r| r.cloud_sqrt_cd_m),
+                cloud_fscore_1_5m: spread(|r| r.cloud_fscore_1_5m),
+                mesh_sqrt_cd_m: spread(|r| r.mesh_sqrt_cd_m),
+                mesh_fscore_1_5m: spread(|r| r.mesh_fscore_1_5m),
+            })
+        })
+        .collect()
+}
+
 /// The whole suite run (`suite.json`).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct SuiteReport {
@@ -217,10 +292,12 @@ pub struct SuiteReport {
     pub preset: &'static str,
     /// The suite directory, as given.
     pub suite_dir: String,
-    /// One row per site, in the order run.
+    /// One row per site (per site and seed with several seeds), in the order run.
     pub sites: Vec<SuiteRow>,
-    /// How many sites failed.
+    /// How many rows failed.
     pub failed: usize,
+    /// With several seeds: each site's spread over them ([`seed_spreads`]).
+    pub seed_spreads: Vec<SeedSpread>,
 }
 
 impl SuiteReport {
@@ -230,13 +307,36 @@ impl SuiteReport {
             preset,
             suite_dir: suite_dir.display().to_string(),
             failed: rows.iter().filter(|r| !r.ok).count(),
+            seed_spreads: seed_spreads(&rows),
             sites: rows,
         }
     }
 
     /// The Markdown page of the run (`suite.md`).
     pub fn markdown(&self) -> String {
-        markdown(&self.sites, self.preset)
+        let mut s = markdown(&self.sites, self.preset);
+        if !self.seed_spreads.is_empty() {
+            s += "\n## Over the seeds\n\n\
+                  | site | runs | cloud √CD (m): mean (min–max) | cloud F(1.5 m): mean (min–max) | \
+                  mesh √CD (m): mean (min–max) | mesh F(1.5 m): mean (min–max) |\n\
+                  |---|---|---|---|---|---|\n";
+            let sp = |x: &Option<Spread>, d: usize| match x {
+                Some(v) => format!("{:.d$} ({:.d$}–{:.d$})", v.mean, v.min, v.max),
+                None => "—".to_string(),
+            };
+            for r in &self.seed_spreads {
+                s += &format!(
+                    "| {} | {} | {} | {} | {} | {} |\n",
+                    r.site,
+                    r.runs,
+                    sp(&r.cloud_sqrt_cd_m, 3),
+                    sp(&r.cloud_fscore_1_5m, 1),
+                    sp(&r.mesh_sqrt_cd_m, 3),
+                    sp(&r.mesh_fscore_1_5m, 1),
+                );
+            }
+        }
+        s
     }
 
     /// The names of the sites that failed, in order.
@@ -246,6 +346,14 @@ impl SuiteReport {
             .filter(|r| !r.ok)
             .map(|r| r.site.as_str())
             .collect()
+    }
+}
+
+/// A row's site name, with its seed when it was run with one in place of the scenario's.
+fn label(r: &SuiteRow) -> String {
+    match r.seed {
+        Some(seed) => format!("{} (seed {seed})", r.site),
+        None => r.site.clone(),
     }
 }
 
@@ -271,7 +379,7 @@ pub fn markdown(rows: &[SuiteRow], preset: &str) -> String {
         if r.ok {
             s += &format!(
                 "| {} | {} | {} | {} | {} | {} | {} | {} | {} | {} |\n",
-                r.site,
+                label(r),
                 cell(r.cloud_sqrt_cd_m, 3),
                 cell(r.cloud_fscore_1_5m, 1),
                 cell(r.mesh_sqrt_cd_m, 3),
@@ -283,7 +391,7 @@ pub fn markdown(rows: &[SuiteRow], preset: &str) -> String {
                 cell(r.peak_rss_mib, 0),
             );
         } else {
-            s += &format!("| {} | **failed** |  |  |  |  |  |  |  |  |\n", r.site);
+            s += &format!("| {} | **failed** |  |  |  |  |  |  |  |  |\n", label(r));
         }
     }
     s += "\nF-scores in %; false surface: share of the mesh's area farther than 1.5 m from the \
@@ -295,7 +403,7 @@ pub fn markdown(rows: &[SuiteRow], preset: &str) -> String {
         for r in failed {
             s += &format!(
                 "- {} ({}): {}\n",
-                r.site,
+                label(r),
                 r.scenario,
                 r.error.as_deref().unwrap_or("")
             );
@@ -361,6 +469,49 @@ mod tests {
         let report = SuiteReport::new("quick", Path::new("suite"), vec![err, panicked]);
         assert_eq!(report.failed, 2);
         assert_eq!(report.failed_sites(), ["a", "b"]);
+    }
+
+    #[test]
+    fn a_site_run_with_several_seeds_gets_the_mean_and_range_of_its_finished_runs() {
+        let row = |seed: u64, cd: f64, ok: bool| SuiteRow {
+            site: "s".into(),
+            ok,
+            cloud_sqrt_cd_m: ok.then_some(cd),
+            cloud_fscore_1_5m: ok.then_some(90.0 + cd),
+            mesh_sqrt_cd_m: None,
+            seed: Some(seed),
+            ..SuiteRow::default()
+        };
+        let alone = SuiteRow {
+            site: "t".into(),
+            ok: true,
+            cloud_sqrt_cd_m: Some(0.5),
+            ..SuiteRow::default()
+        };
+        let rows = vec![
+            row(1, 0.8, true),
+            row(2, 1.1, true),
+            row(3, 9.0, false),
+            row(4, 0.9, true),
+            alone,
+        ];
+        let report = SuiteReport::new("quick", Path::new("d"), rows);
+        assert_eq!(report.failed, 1);
+        // Only the site with several seeds; the failed run is left out.
+        assert_eq!(report.seed_spreads.len(), 1);
+        let s = &report.seed_spreads[0];
+        assert_eq!((s.site.as_str(), s.runs), ("s", 3));
+        let cd = s.cloud_sqrt_cd_m.unwrap();
+        assert!((cd.mean - 0.9333333333).abs() < 1e-9 && cd.min == 0.8 && cd.max == 1.1);
+        assert!(s.mesh_sqrt_cd_m.is_none());
+        let md = report.markdown();
+        assert!(md.contains("| s (seed 2) | 1.100 |"), "{md}");
+        assert!(md.contains("| s (seed 3) | **failed** |"), "{md}");
+        assert!(
+            md.contains("| s | 3 | 0.933 (0.800–1.100) | 90.9 (90.8–91.1) | — | — |"),
+            "{md}"
+        );
+        assert_eq!(Spread::of([f64::NAN]), None);
     }
 
     #[test]

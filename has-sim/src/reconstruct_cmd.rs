@@ -76,6 +76,10 @@ pub struct ReconstructArgs {
     /// the `--out` directory.
     #[arg(long)]
     pub from_pairs: Option<PathBuf>,
+    /// Seed of the scatterer sampling and the noise, in place of the scenario's
+    /// `imaging.seed`: another draw of the same site, to see how much a figure owes to the draw.
+    #[arg(long)]
+    pub seed: Option<u64>,
 }
 
 impl ReconstructArgs {
@@ -95,6 +99,7 @@ impl ReconstructArgs {
             no_wall_columns: false,
             no_roof_edge_walls: false,
             no_mesh: false,
+            seed: None,
         }
     }
 }
@@ -120,6 +125,9 @@ fn load(args: &ReconstructArgs) -> Result<(Scenario, String)> {
         Some("factorised") => sc.imaging.backprojection = imaging::Backprojection::Factorised,
         Some("exact") => sc.imaging.backprojection = imaging::Backprojection::Exact,
         _ => {}
+    }
+    if let Some(seed) = args.seed {
+        sc.imaging.seed = seed;
     }
     if args.quick || args.backprojection.is_some() {
         sc.validate()?;

@@ -1,5 +1,6 @@
-//! `has-sim suite [--quick] --out DIR [--sites NAME,NAME]`: the reconstruction of every site of
-//! the scenario suite (`fixtures/suite/*.toml`, issue 13) and one table of the results.
+//! `has-sim suite [--quick] --out DIR [--sites NAME,NAME] [--seeds N]`: the reconstruction of every
+//! site of the scenario suite (`fixtures/suite/*.toml`, issue 13) and one table of the results;
+//! with `--seeds N` each site N times with successive seeds and its mean and range over them.
 //!
 //! Each site (a scenario file; its name is the file stem, [`has_host::suite::discover`]) is
 //! reconstructed in turn by [`crate::reconstruct_cmd::run`] into `DIR/<site>/`, sorted by name or
@@ -39,6 +40,11 @@ pub struct SuiteArgs {
     /// tree's.
     #[arg(long)]
     pub suite_dir: Option<PathBuf>,
+    /// Run every site this many times, with its scenario's `imaging.seed` and the next ones
+    /// (into `DIR/<site>/seed_<s>/`), and add each site's mean and range over the runs: how much
+    /// of a figure is the site's and how much one draw's.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=100))]
+    pub seeds: u64,
 }
 
 /// Runs the command.
@@ -62,16 +68,38 @@ pub fn run(args: SuiteArgs) -> Result<()> {
     let mut rows = Vec::new();
     for (k, site) in sites.iter().enumerate() {
         println!("== suite: {} ({}/{}) ==", site.name, k + 1, sites.len());
-        let out = args.out.join(&site.name);
-        crate::resources::reset_peak_rss();
-        let row = suite::run_site(site, || {
-            let args = ReconstructArgs::defaults(Some(site.scenario.clone()), &out, args.quick);
-            crate::reconstruct_cmd::run(args).map(|r| (r.reconstruction, r.peak_rss_mib))
-        });
-        if let Some(msg) = &row.error {
-            eprintln!("has-sim: suite: {} failed: {msg}", site.name);
+        // One run with the scenario's own seed, or `--seeds` runs from it on (a scenario that
+        // does not load fails in its run, with the reconstruction's error).
+        let seeds: Vec<Option<u64>> = if args.seeds == 1 {
+            vec![None]
+        } else {
+            let first =
+                has_host::scenario::Scenario::load(&site.scenario).map_or(1, |sc| sc.imaging.seed);
+            (0..args.seeds)
+                .map(|i| Some(first.wrapping_add(i)))
+                .collect()
+        };
+        for seed in seeds {
+            let out = match seed {
+                None => args.out.join(&site.name),
+                Some(s) => {
+                    println!("-- seed {s}");
+                    args.out.join(&site.name).join(format!("seed_{s}"))
+                }
+            };
+            crate::resources::reset_peak_rss();
+            let mut row = suite::run_site(site, || {
+                let mut a =
+                    ReconstructArgs::defaults(Some(site.scenario.clone()), &out, args.quick);
+                a.seed = seed;
+                crate::reconstruct_cmd::run(a).map(|r| (r.reconstruction, r.peak_rss_mib))
+            });
+            row.seed = seed;
+            if let Some(msg) = &row.error {
+                eprintln!("has-sim: suite: {} failed: {msg}", site.name);
+            }
+            rows.push(row);
         }
-        rows.push(row);
     }
     let report = SuiteReport::new(preset, &dir, rows);
     let failed = report.failed_sites();
