@@ -111,12 +111,21 @@ pub fn phase_index(t: f32) -> u32 {
 /// the table step in bits 15..28 and the fraction between steps in bits 0..15 (of which `f32`
 /// keeps at most its 24-bit mantissa's worth).
 ///
-/// `t` must be finite; a non-finite `t` maps to 0 (float-to-int `as` casts saturate).
+/// Float operations only, so loops calling it vectorise (a float-to-int `as` cast does not: its
+/// saturation is done lane by lane): the step `k = floor(frac·2¹³)` and the fraction
+/// `floor((frac·2¹³ − k)·2¹⁵)` are each exact (scalings by powers of two, a float minus its
+/// floor) and read out of a mantissa ([`ROUND_MAGIC`]), which is `floor(frac·2²⁸)`, the
+/// truncating cast's word, bit for bit (tested). `t` must be finite; a non-finite `t` gives some
+/// word below `PHASE_STEPS·2¹⁵`.
 #[inline(always)]
 pub fn phase_word(t: f32) -> u32 {
     const ONE: u32 = PHASE_STEPS << PHASE_FRAC_BITS;
     let f = t - floor_f32(t); // [0, 1]
-    ((f * ONE as f32) as u32) & (ONE - 1)
+    let s = f * PHASE_STEPS as f32;
+    let k = floor_small_f32(s); // [0, PHASE_STEPS]
+    let g = floor_small_f32((s - k) * (1 << PHASE_FRAC_BITS) as f32); // [0, 2¹⁵)
+    let bits = |v: f32| (v + ROUND_MAGIC).to_bits() & 0x3F_FFFF;
+    ((bits(k) << PHASE_FRAC_BITS) | bits(g)) & (ONE - 1)
 }
 
 /// `e^{+j2π·w/(PHASE_STEPS·2¹⁵)}` as `i16` Q15 `(re, im)`, interpolated linearly in integers
@@ -192,26 +201,53 @@ pub fn rotor_q15(t: f32) -> (i16, i16) {
     rotor_q15_word(phase_word(t))
 }
 
+/// `1.5·2²³`: a float `x` with `|x| < 2²²` added to it lands in \[2²³, 2²⁴), where the ulp is
+/// 1, so the sum is `x` rounded to the nearest integer (ties to even) plus `ROUND_MAGIC`, and its
+/// mantissa's low bits are that integer (`ROUND_MAGIC`'s own mantissa, 2²², is ≡ 0 mod 4).
+pub const ROUND_MAGIC: f32 = 12_582_912.0;
+
+/// `floor(x)` exact for `|x| < 2²²` in four float operations (round to nearest through
+/// [`ROUND_MAGIC`], then 1 off where that rounded up), vectorising on any target; for larger
+/// `|x|` a finite value within 2 of `x` (`x` itself beyond 2²⁴). For indices that are clamped
+/// into a much shorter range anyway; [`floor_f32`] is exact everywhere.
+#[inline(always)]
+pub fn floor_small_f32(x: f32) -> f32 {
+    let r = (x + ROUND_MAGIC) - ROUND_MAGIC;
+    if r > x {
+        r - 1.0
+    } else {
+        r
+    }
+}
+
 /// `e^{+j2πt}` in `f32` by quadrant reduction and polynomials (error ≤ [`ROTOR_F32_MAX_ERR`] per
-/// component for `|t| ≤ 2¹⁶`; larger `|t|` lose fractional bits in `t` itself).
+/// component for `|t| ≤ 2¹⁶`; larger `|t|` lose fractional bits in `t` itself, and beyond
+/// `|t| ≥ 2²⁰` the result is a unit quarter turn, meaningless but finite).
 #[inline(always)]
 pub fn rotor_f32(t: f32) -> Complex<f32> {
-    // Nearest quarter turn: t = q/4 + u, |u| ≤ 1/8 cycle. `round` via floor(x + 0.5).
-    let q4 = floor_f32(4.0 * t + 0.5);
-    let u = t - 0.25 * q4;
+    // Nearest quarter turn: 4t = q4 + 4u, |u| ≤ 1/8 cycle, q4 rounded through ROUND_MAGIC;
+    // q4 mod 4 is in the sum's low mantissa bits (exact for |4t| < 2²²).
+    let x = 4.0 * t;
+    let m = x + ROUND_MAGIC;
+    let q4 = m - ROUND_MAGIC;
+    let u = if x.abs() < 4_194_304.0 {
+        t - 0.25 * q4
+    } else {
+        0.0
+    };
     let th = core::f32::consts::TAU * u;
     let th2 = th * th;
     let s = th * (1.0 + th2 * (-1.0 / 6.0 + th2 * (1.0 / 120.0 + th2 * (-1.0 / 5040.0))));
     let c = 1.0 + th2 * (-0.5 + th2 * (1.0 / 24.0 + th2 * (-1.0 / 720.0 + th2 * (1.0 / 40320.0))));
-    // Rotate by q quarter turns, q = q4 mod 4 in {0, 1, 2, 3}, in float (vectorises).
-    let q = q4 - 4.0 * floor_f32(0.25 * q4);
-    let odd = q == 1.0 || q == 3.0;
-    let (re, im) = if odd { (-s, c) } else { (c, s) };
-    if q >= 2.0 {
-        Complex::new(-re, -im)
-    } else {
-        Complex::new(re, im)
-    }
+    // Rotate by q = q4 mod 4 quarter turns: odd q swaps (c, s) → (−s, c); q ≥ 2 negates both,
+    // a sign flip by xor (integer operations on the bits, vectorise).
+    let q = m.to_bits() & 3;
+    let (re, im) = if q & 1 != 0 { (-s, c) } else { (c, s) };
+    let flip = (q & 2) << 30;
+    Complex::new(
+        f32::from_bits(re.to_bits() ^ flip),
+        f32::from_bits(im.to_bits() ^ flip),
+    )
 }
 
 /// `e^{+j2πt}` in `f32` from `libm::sincosf` after reducing `t` to `[−½, ½)`: the exact path.
@@ -332,6 +368,26 @@ mod tests {
     #[test]
     fn phase_word_holds_the_step_above_the_fraction() {
         assert_eq!(phase_word(0.0), 0);
+        // The word is the truncating cast of frac(t)·2²⁸, bit for bit.
+        let mut t = -3000.0f32;
+        while t < 3000.0 {
+            let f = t - libm::floorf(t);
+            let want = ((f as f64 * (PHASE_STEPS << PHASE_FRAC_BITS) as f64) as u32)
+                & ((PHASE_STEPS << PHASE_FRAC_BITS) - 1);
+            assert_eq!(phase_word(t), want, "t = {t}");
+            t += 0.013_7 * (1.0 + libm::fabsf(t) * 1e-3);
+        }
+        for t in [
+            1.0f32 - f32::EPSILON / 2.0,
+            -f32::EPSILON / 4.0,
+            1e-30,
+            2e6 + 0.5,
+        ] {
+            let f = t - libm::floorf(t);
+            let want = ((f as f64 * (PHASE_STEPS << PHASE_FRAC_BITS) as f64) as u32)
+                & ((PHASE_STEPS << PHASE_FRAC_BITS) - 1);
+            assert_eq!(phase_word(t), want, "t = {t}");
+        }
         assert_eq!(phase_word(0.25), (QUARTER as u32) << PHASE_FRAC_BITS);
         assert_eq!(phase_word(-0.25), (3 * QUARTER as u32) << PHASE_FRAC_BITS);
         assert_eq!(phase_word(1000.5) >> PHASE_FRAC_BITS, 2 * QUARTER as u32);
@@ -364,6 +420,49 @@ mod tests {
                 .max((z.im - s as f32).abs());
         }
         assert!(worst <= ROTOR_F32_MAX_ERR, "worst {worst}");
+    }
+
+    #[test]
+    fn floor_small_f32_is_exact_below_two_to_the_22_and_within_two_above() {
+        let mut x = -4_194_303.9f32;
+        while x < 4_194_304.0 {
+            assert_eq!(floor_small_f32(x), libm::floorf(x), "x = {x}");
+            for y in [
+                x.next_up(),
+                x.next_down(),
+                libm::floorf(x),
+                libm::floorf(x) + 0.5,
+            ] {
+                if y.abs() < 4_194_304.0 {
+                    assert_eq!(floor_small_f32(y), libm::floorf(y), "y = {y}");
+                }
+            }
+            x += 0.731 * (1.0 + x.abs() * 1e-3);
+        }
+        for x in [
+            4.2e6f32,
+            -4.2e6,
+            8.4e6,
+            -8.4e6,
+            1.6e7,
+            3e9,
+            -3e9,
+            1e30,
+            -1e30,
+            f32::MAX / 16.0,
+        ] {
+            let f = floor_small_f32(x);
+            assert!(f.is_finite() && (f - x).abs() <= 2.0, "x = {x}: {f}");
+        }
+    }
+
+    #[test]
+    fn rotor_f32_is_a_finite_unit_quarter_turn_beyond_its_range() {
+        for t in [1.1e6f32, -1.1e6, 3e9, 1e30, -1e30, f32::MAX / 16.0] {
+            let z = rotor_f32(t);
+            assert!(z.re.is_finite() && z.im.is_finite(), "t = {t}");
+            assert!((z.norm() - 1.0).abs() < 1e-6, "t = {t}: {z}");
+        }
     }
 
     #[test]

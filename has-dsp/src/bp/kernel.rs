@@ -14,7 +14,9 @@
 use super::{Backprojector, Interp, PhaseEval, Snapshot, VoxelGrid, CHUNK};
 use crate::fixed::CQ15;
 use crate::float;
-use crate::phase::{floor_f32, phase_word, rotor_f32, rotor_f32_libm, rotor_q15_word};
+use crate::phase::{
+    floor_small_f32, phase_word, rotor_f32, rotor_f32_libm, rotor_q15_word, ROUND_MAGIC,
+};
 use num_complex::Complex;
 
 /// Fills grid-local coordinates of voxels `start .. start + px.len()` (all slices equal length).
@@ -144,9 +146,15 @@ fn run_f32_impl<const LINEAR: bool, const POLY: bool, const POWER: bool>(
     let zero = Complex::new(0.0f32, 0.0);
     let mut geo = Geo::new();
     let mut rs = [0f32; CHUNK];
-    // Per element: bin (floor of the fractional bin, as f32), weight, rotor, gathered samples.
-    let (mut bin, mut w, mut c_re, mut c_im) =
-        ([0f32; CHUNK], [0f32; CHUNK], [0f32; CHUNK], [0f32; CHUNK]);
+    // Per element: the index of the first of the two samples read (clamped into the profile),
+    // their weights (zero for a sample outside the profile), the rotor, the gathered samples.
+    let (mut idx, mut wa, mut wb, mut c_re, mut c_im) = (
+        [0u32; CHUNK],
+        [0f32; CHUNK],
+        [0f32; CHUNK],
+        [0f32; CHUNK],
+        [0f32; CHUNK],
+    );
     let (mut s0, mut s1) = ([zero; CHUNK], [zero; CHUNK]);
     // The chunk's accumulators as struct of arrays, kept across the snapshot's elements.
     let (mut a_re, mut a_im) = ([0f32; CHUNK], [0f32; CHUNK]);
@@ -163,17 +171,45 @@ fn run_f32_impl<const LINEAR: bool, const POLY: bool, const POWER: bool>(
             j_im[..n].fill(0.0);
         }
         for (a, profile) in snap.rx.iter().zip(snap.profiles.chunks_exact(len)) {
-            let Some(last) = profile.len().checked_sub(1) else {
+            // Linear reads a pair of adjacent samples: a one-sample profile is read as itself
+            // and a zero after it (the zero is outside the profile: it adds nothing).
+            let pad;
+            let profile = if LINEAR && profile.len() == 1 {
+                pad = [profile[0], zero];
+                &pad[..]
+            } else {
+                profile
+            };
+            // The highest first index read: the last sample (nearest), the last pair (linear).
+            let Some(hi) = profile.len().checked_sub(if LINEAR { 2 } else { 1 }) else {
                 continue;
             };
-            // Pass A (vectorises): range → bin, weight and rotor.
+            let hi_f = hi as f32;
+            // Pass A (vectorises, no branches): range → bin `fl`, fraction, rotor; then the
+            // first index read, `ic = clamp(fl, 0, hi)`, and the weights of samples `ic` and
+            // `ic + 1`: sample `j` carries 1 − fraction where `j = fl`, the fraction where
+            // `j = fl + 1` and nothing otherwise, so a bin partly or wholly outside the profile
+            // reads zero there, and inside it is `s[fl]·(1 − w) + s[fl + 1]·w`.
             geo.ranges(n, *a, &mut rs);
             for k in 0..n {
                 let r = rs[k];
                 let x = (r - r0) * inv_dr;
-                let fl = floor_f32(if LINEAR { x } else { x + 0.5 });
-                bin[k] = fl;
-                w[k] = x - fl;
+                // Exact below 2²² bins; beyond, within 2 of `x`: clamped away either way.
+                let fl = floor_small_f32(if LINEAR { x } else { x + 0.5 });
+                let f = x - fl;
+                let ic = fl.clamp(0.0, hi_f);
+                // `ic` is an integer in [0, hi], hi < 2²² (`MAX_PROFILE_LEN`): added to 2²³ it
+                // is the mantissa, read without a float-to-int conversion (whose saturation and
+                // NaN checks would not vectorise). The comparisons are exact: integers < 2²⁴.
+                idx[k] = (ic + 8_388_608.0).to_bits() & 0x7F_FFFF;
+                if LINEAR {
+                    let (lo, up) = (1.0 - f, f);
+                    wa[k] = if ic == fl { lo } else { 0.0 } + if ic == fl + 1.0 { up } else { 0.0 };
+                    wb[k] = if ic + 1.0 == fl { lo } else { 0.0 }
+                        + if ic + 1.0 == fl + 1.0 { up } else { 0.0 };
+                } else {
+                    wa[k] = if ic == fl { 1.0 } else { 0.0 };
+                }
                 let z = if POLY {
                     rotor_f32(bp.cycles(r))
                 } else {
@@ -182,31 +218,24 @@ fn run_f32_impl<const LINEAR: bool, const POLY: bool, const POWER: bool>(
                 c_re[k] = z.re;
                 c_im[k] = z.im;
             }
-            // Pass B1 (scalar gathers): samples at the bin and the next one, zero outside. A
-            // negative bin wraps to a huge usize: out of range like one past the end.
-            let at = |i: usize| {
-                if i <= last {
-                    profile.get(i).copied().unwrap_or(zero)
-                } else {
-                    zero
-                }
-            };
+            // Pass B1 (scalar loads, no branches): the samples at `ic` and `ic + 1`.
             for k in 0..n {
-                let i = bin[k] as isize as usize;
-                s0[k] = at(i);
+                let i = (idx[k] as usize).min(hi);
+                s0[k] = profile[i];
                 if LINEAR {
-                    s1[k] = at(i.wrapping_add(1));
+                    s1[k] = profile[i + 1];
                 }
             }
             // Pass B2 (vectorises): interpolate, rotate, accumulate.
             let (a_re, a_im) = (&mut a_re[..n], &mut a_im[..n]);
             let (j_re, j_im) = (&mut j_re[..n], &mut j_im[..n]);
-            let (s0, s1, w, c_re, c_im) = (&s0[..n], &s1[..n], &w[..n], &c_re[..n], &c_im[..n]);
+            let (s0, s1, wa, wb) = (&s0[..n], &s1[..n], &wa[..n], &wb[..n]);
+            let (c_re, c_im) = (&c_re[..n], &c_im[..n]);
             for k in 0..n {
                 let s = if LINEAR {
-                    s0[k] * (1.0 - w[k]) + s1[k] * w[k]
+                    s0[k] * wa[k] + s1[k] * wb[k]
                 } else {
-                    s0[k]
+                    s0[k] * wa[k]
                 };
                 let (re, im) = (
                     s.re * c_re[k] - s.im * c_im[k],
@@ -306,7 +335,8 @@ fn run_q15_impl<const LINEAR: bool>(
     let len = snap.profile_len;
     let mut geo = Geo::new();
     let mut rs = [0f32; CHUNK];
-    let (mut bins, mut ws, mut ts) = ([0f32; CHUNK], [0f32; CHUNK], [0f32; CHUNK]);
+    // Per element: bin, fraction (Q15) and phase word, as integers.
+    let (mut bins, mut ws, mut words) = ([0i32; CHUNK], [0i32; CHUNK], [0u32; CHUNK]);
     // Interpolated samples and rotors (struct of arrays), then the chunk's i64 accumulators.
     let (mut s_re, mut s_im, mut c_re, mut c_im) =
         ([0i32; CHUNK], [0i32; CHUNK], [0i32; CHUNK], [0i32; CHUNK]);
@@ -331,21 +361,27 @@ fn run_q15_impl<const LINEAR: bool>(
             }
             let half = if shift == 0 { 0 } else { 1i64 << (shift - 1) };
             geo.ranges(n, *a, &mut rs);
-            // Pass A (float only, vectorises): bin, fraction, phase in cycles.
+            // Pass A (vectorises: float operations, and float-to-int conversions of values
+            // known to fit): bin, Q15 fraction, phase word.
+            let len_f = profile.len() as f32;
             for k in 0..n {
                 let r = rs[k];
                 let x = (r - r0) * inv_dr;
-                let fl = floor_f32(if LINEAR { x } else { x + 0.5 });
-                bins[k] = fl;
-                ws[k] = x - fl;
-                ts[k] = bp.cycles(r);
+                // Exact below 2²² bins; beyond, within 2 of `x`: clamped away either way.
+                let fl = floor_small_f32(if LINEAR { x } else { x + 0.5 });
+                // In [0, 32767]: x − fl < 1 exactly (unused for nearest).
+                let w = floor_small_f32((x - fl) * 32768.0);
+                // Clamped to [−2, len]: every bin outside reads zero at both samples, as the bin
+                // itself would; an integer below 2²², read out of the mantissa (ROUND_MAGIC).
+                let b = fl.clamp(-2.0, len_f);
+                bins[k] = ((b + ROUND_MAGIC).to_bits() & 0x7F_FFFF) as i32 - (1 << 22);
+                ws[k] = ((w + ROUND_MAGIC).to_bits() & 0x3F_FFFF) as i32;
+                words[k] = phase_word(bp.cycles(r));
             }
-            // Pass B1 (scalar: conversions and gathers): interpolated sample and table rotor.
+            // Pass B1 (scalar: gathers): interpolated sample and table rotor.
             for k in 0..n {
-                // In [0, 32767]: x − fl < 1 exactly, and `as` truncates (unused for nearest).
-                let w = (ws[k] * 32768.0) as i32;
-                (s_re[k], s_im[k]) = interp_q15::<LINEAR>(profile, bins[k] as i32, w);
-                let (re, im) = rotor_q15_word(phase_word(ts[k]));
+                (s_re[k], s_im[k]) = interp_q15::<LINEAR>(profile, bins[k], ws[k]);
+                let (re, im) = rotor_q15_word(words[k]);
                 (c_re[k], c_im[k]) = (re as i32, im as i32);
             }
             // Pass B2: exact Q30 product, aligned and accumulated in i64. |s| components

@@ -248,10 +248,10 @@ pub struct Snapshot<'a, T> {
 impl<T> Snapshot<'_, T> {
     fn validate(&self) -> Result<(), DspError> {
         check_local("snapshot.tx", self.tx)?;
-        if self.profile_len == 0 {
+        if self.profile_len == 0 || self.profile_len > MAX_PROFILE_LEN {
             return Err(DspError::UnsupportedLength {
                 what: "snapshot.profile_len",
-                len: 0,
+                len: self.profile_len,
             });
         }
         let want =
@@ -269,6 +269,10 @@ impl<T> Snapshot<'_, T> {
         Ok(())
     }
 }
+
+/// Most bins a profile may have (2²², 4 Mi): the f32 kernel reads a bin index out of an f32's
+/// mantissa, exact below 2²³.
+pub const MAX_PROFILE_LEN: usize = 1 << 22;
 
 /// Largest grid-local coordinate (and grid extent) accepted, metres. Beyond it an `f32`
 /// coordinate's ulp (≥ 7.8 mm) makes the phase meaningless at centimetre wavelengths; the bound
