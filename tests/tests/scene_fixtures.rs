@@ -178,3 +178,40 @@ fn a_missing_mesh_names_the_xml_file_its_line_and_the_shape() {
     assert!(e.contains("nothere.ply"), "{e}");
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn every_bundled_scenario_loads_and_its_scene_builds() {
+    // The suite, the held-out sites (random, courtyard, …) and the bundled factory: each file
+    // parses, validates, and its scene's objects (generated buildings, loaded meshes) build with
+    // every truth object among them, as `has-sim reconstruct` and `has-sim suite` need.
+    use has_host::scenario::Scenario;
+    fn scenarios(dir: &std::path::Path, out: &mut Vec<PathBuf>) {
+        for e in std::fs::read_dir(dir).unwrap() {
+            let p = e.unwrap().path();
+            if p.is_dir() {
+                scenarios(&p, out);
+            } else if p.extension().is_some_and(|x| x == "toml") {
+                out.push(p);
+            }
+        }
+    }
+    let mut files = vec![fixtures().join("factory.toml")];
+    scenarios(&fixtures().join("suite"), &mut files);
+    scenarios(&fixtures().join("holdout"), &mut files);
+    files.sort();
+    assert!(files.len() >= 25, "{} scenario files", files.len());
+    for f in &files {
+        let sc = Scenario::load(f).unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        let objects = sc
+            .scene
+            .build_objects()
+            .unwrap_or_else(|e| panic!("{}: {e}", f.display()));
+        for t in &sc.imaging.truth_objects {
+            assert!(
+                objects.iter().any(|o| o.name == *t),
+                "{}: truth object {t} not in the scene",
+                f.display()
+            );
+        }
+    }
+}
