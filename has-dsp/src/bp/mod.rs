@@ -44,7 +44,8 @@
 //! in chunks of [`CHUNK`]: the chunk's coordinates, `r_V` and accumulators (struct of arrays) stay
 //! in L1 while the elements stream through; per element, pass A (bistatic range, bin, weight,
 //! rotor) vectorises, pass B1 gathers the two samples, pass B2 (interpolate, rotate, accumulate)
-//! vectorises. Stack use is about 16 KiB (`f32`: one more 1 KiB index array since ec3bdf6) / 8 KiB (Q15) at `CHUNK = 256`.
+//! vectorises. Stack use is about 16 KiB (`f32`, with its 1 KiB index array) / 8 KiB (Q15) at
+//! `CHUNK = 256`.
 //!
 //! Accumulator states cover a *tile*: a contiguous range of linear voxel indices. A host splits
 //! the grid into disjoint tiles once, keeps one state per tile alive for the whole run, and pushes
