@@ -967,6 +967,8 @@ mod tests {
     }
 
     /// An 8 × 4, O = 4 factorisation of the 20 m panel and the table of transmit position `k`.
+    /// (`bp`, `l` and `tx` are read only by the tests of the `std` build.)
+    #[cfg_attr(not(feature = "std"), allow(dead_code))]
     struct Built {
         bp: Backprojector,
         l: Lattice,
