@@ -124,8 +124,7 @@ pub fn phase_word(t: f32) -> u32 {
     let s = f * PHASE_STEPS as f32;
     let k = floor_small_f32(s); // [0, PHASE_STEPS]
     let g = floor_small_f32((s - k) * (1 << PHASE_FRAC_BITS) as f32); // [0, 2¹⁵)
-    let bits = |v: f32| (v + ROUND_MAGIC).to_bits() & 0x3F_FFFF;
-    ((bits(k) << PHASE_FRAC_BITS) | bits(g)) & (ONE - 1)
+    (((small_int(k) as u32) << PHASE_FRAC_BITS) | small_int(g) as u32) & (ONE - 1)
 }
 
 /// `e^{+j2π·w/(PHASE_STEPS·2¹⁵)}` as `i16` Q15 `(re, im)`, interpolated linearly in integers
@@ -205,6 +204,14 @@ pub fn rotor_q15(t: f32) -> (i16, i16) {
 /// 1, so the sum is `x` rounded to the nearest integer (ties to even) plus `ROUND_MAGIC`, and its
 /// mantissa's low bits are that integer (`ROUND_MAGIC`'s own mantissa, 2²², is ≡ 0 mod 4).
 pub const ROUND_MAGIC: f32 = 12_582_912.0;
+
+/// The integer `v` (`|v| < 2²²`, already integral) as `i32`, read out of the mantissa of
+/// `v + ROUND_MAGIC` (which is `v + 2²²`): integer-bit operations that vectorise, unlike a
+/// float-to-int `as` cast, whose saturation is done lane by lane.
+#[inline(always)]
+pub fn small_int(v: f32) -> i32 {
+    ((v + ROUND_MAGIC).to_bits() & 0x7F_FFFF) as i32 - (1 << 22)
+}
 
 /// `floor(x)` exact for `|x| < 2²²` in four float operations (round to nearest through
 /// [`ROUND_MAGIC`], then 1 off where that rounded up), vectorising on any target; for larger

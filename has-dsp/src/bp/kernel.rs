@@ -15,7 +15,7 @@ use super::{Backprojector, Interp, PhaseEval, Snapshot, VoxelGrid, CHUNK};
 use crate::fixed::CQ15;
 use crate::float;
 use crate::phase::{
-    floor_small_f32, phase_word, rotor_f32, rotor_f32_libm, rotor_q15_word, ROUND_MAGIC,
+    floor_small_f32, phase_word, rotor_f32, rotor_f32_libm, rotor_q15_word, small_int,
 };
 use num_complex::Complex;
 
@@ -198,10 +198,10 @@ fn run_f32_impl<const LINEAR: bool, const POLY: bool, const POWER: bool>(
                 let fl = floor_small_f32(if LINEAR { x } else { x + 0.5 });
                 let f = x - fl;
                 let ic = fl.clamp(0.0, hi_f);
-                // `ic` is an integer in [0, hi], hi < 2²² (`MAX_PROFILE_LEN`): added to 2²³ it
-                // is the mantissa, read without a float-to-int conversion (whose saturation and
-                // NaN checks would not vectorise). The comparisons are exact: integers < 2²⁴.
-                idx[k] = (ic + 8_388_608.0).to_bits() & 0x7F_FFFF;
+                // `ic` is an integer in [0, hi], hi < 2²² (`MAX_PROFILE_LEN`): `small_int` reads
+                // it without a float-to-int conversion (whose saturation and NaN checks would
+                // not vectorise). The comparisons are exact: integers < 2²⁴.
+                idx[k] = small_int(ic) as u32;
                 if LINEAR {
                     let (lo, up) = (1.0 - f, f);
                     wa[k] = if ic == fl { lo } else { 0.0 } + if ic == fl + 1.0 { up } else { 0.0 };
@@ -372,10 +372,10 @@ fn run_q15_impl<const LINEAR: bool>(
                 // In [0, 32767]: x − fl < 1 exactly (unused for nearest).
                 let w = floor_small_f32((x - fl) * 32768.0);
                 // Clamped to [−2, len]: every bin outside reads zero at both samples, as the bin
-                // itself would; an integer below 2²², read out of the mantissa (ROUND_MAGIC).
+                // itself would; an integer below 2²², read by `small_int`.
                 let b = fl.clamp(-2.0, len_f);
-                bins[k] = ((b + ROUND_MAGIC).to_bits() & 0x7F_FFFF) as i32 - (1 << 22);
-                ws[k] = ((w + ROUND_MAGIC).to_bits() & 0x3F_FFFF) as i32;
+                bins[k] = small_int(b);
+                ws[k] = small_int(w);
                 words[k] = phase_word(bp.cycles(r));
             }
             // Pass B1 (scalar: gathers): interpolated sample and table rotor.
