@@ -48,6 +48,10 @@ pub struct MeshArgs {
     /// sample is extrapolation (`reconstruct` uses half the coarsest resolution cell of its pairs).
     #[arg(long)]
     pub support_distance: Option<f32>,
+    /// Keep only the faces turned as the nearest input point's normal (drops the far side of the
+    /// thin solid Poisson closes around an open sheet of points; `reconstruct` does this).
+    #[arg(long)]
+    pub facing_samples: bool,
     /// Keep only faces inside this box, lower corner `x y z` in metres (with `--clip-max`):
     /// typically the imaging region, outside which the closed surface is invented.
     #[arg(
@@ -176,6 +180,7 @@ pub fn run(a: MeshArgs) -> anyhow::Result<()> {
                 _ => None,
             },
             support_distance_m: a.support_distance,
+            facing_samples: a.facing_samples,
             min_component_fraction: (a.min_component > 0.0).then_some(a.min_component),
         },
         estimate_normals: a.estimate_normals,

@@ -49,6 +49,10 @@ pub struct ReconstructArgs {
     /// 2^depth). Default: a finest cell of half the imaging voxel, whatever the cloud's extent.
     #[arg(long)]
     pub mesh_depth: Option<u32>,
+    /// The finest Poisson cell of the surface reconstruction in metres, whatever the cloud's
+    /// extent, replacing the default rule.
+    #[arg(long, conflicts_with = "mesh_depth")]
+    pub mesh_cell: Option<f32>,
     /// Density trim of the mesh, fraction of the median vertex support density, in [0, 1]
     /// (0: no trim, the mesh is only clipped to the support distance of the fused points).
     #[arg(long, default_value_t = imaging::surface::DEFAULT_TRIM_MEDIAN)]
@@ -94,6 +98,7 @@ impl ReconstructArgs {
             backprojection: None,
             from_pairs: None,
             mesh_depth: None,
+            mesh_cell: None,
             mesh_trim_median: imaging::surface::DEFAULT_TRIM_MEDIAN,
             visibility_filter: false,
             no_wall_columns: false,
@@ -277,6 +282,12 @@ fn check_args(args: &ReconstructArgs) -> Result<()> {
             anyhow::bail!("--mesh-depth: {d} is not in 1..=10");
         }
     }
+    if let Some(c) = args
+        .mesh_cell
+        .filter(|c| !(c.is_finite() && (0.01..=10.0).contains(c)))
+    {
+        anyhow::bail!("--mesh-cell: {c} m is not in [0.01, 10]");
+    }
     if let Some(dir) = &args.from_pairs {
         if args.fixed_point || args.raw_ofdm || args.backprojection.is_some() {
             anyhow::bail!(
@@ -352,6 +363,7 @@ pub fn run(args: ReconstructArgs) -> Result<ReconstructRunReport> {
         },
         surface: (!args.no_mesh).then_some(imaging::SurfaceOptions {
             depth: args.mesh_depth,
+            cell_m: args.mesh_cell,
             trim_median: (args.mesh_trim_median > 0.0).then_some(args.mesh_trim_median),
             visibility_filter: args.visibility_filter,
             wall_columns: !args.no_wall_columns,

@@ -5,6 +5,15 @@
 //! **The rules**, each from the imaging rather than from a site:
 //! - the Poisson grid's finest cell is [`CELL_PER_VOXEL`] of the imaging voxel (or a depth the
 //!   caller gives), whatever the site's extent;
+//! - each sample's normal — the PCA normal, oriented toward the sensors that observed it — is
+//!   taken over the fused points within the support distance (below), never over a fixed number
+//!   of neighbours: a fused point stands for a resolution cell and scatters across its surface by
+//!   a good part of one (0.3–0.5 m measured across the suite, on a 0.25 m lattice at the default
+//!   preset), so the 16 nearest points, half a metre of wall there, gave normals that were mostly
+//!   noise (median error 40° on factory_site; 15° at the quick preset's sparser lattice), and
+//!   Poisson closed bubbles around the noise (mesh area 2.7–3.6× the truth's). Over the support
+//!   distance the median error is 6°. Measured: docs/results.md, "Normals over a resolution
+//!   cell";
 //! - each sample weighs its fusion weight (the fused cloud's `weight`, [`super::fuse`]): over the
 //!   pairs that detected it, the sum of each detection's `|I|` relative to its pair's peak times
 //!   the pair's resolution factor — the confidence the fusion already keeps points by. A cluster
@@ -22,6 +31,12 @@
 //! - clipped to the imaging region's box, and to [`super::support_distance_m`] of the samples
 //!   (half the coarsest resolution cell: a fused point stands for a cell, farther is
 //!   extrapolation);
+//! - only the faces turned as the samples nearest them are kept
+//!   ([`crate::mesh::TriMesh::facing_samples`]): where the samples are an open sheet (a wall
+//!   seen from outside, a roof seen from above), Poisson closes a thin solid around them whose
+//!   far side faces away from every sensor — never seen, and double the area (default preset,
+//!   suite and held-out sites: 1.85–2.64× the truth's area → 1.35–1.82×, √CD from 0.025 m
+//!   better to 0.009 m worse site by site; docs/results.md, "Normals over a resolution cell");
 //! - repaired for other tools, then connected components under [`MIN_COMPONENT_FRACTION`] of the
 //!   largest one's area dropped;
 //! - a point whose local surface (its PCA normal, oriented toward its sensors) faces away from
@@ -53,8 +68,9 @@ use super::wall_columns::{roof_edge_walls, wall_columns};
 use super::world::Terrain;
 use crate::knn::GeometryError;
 use crate::mesh::{
-    depth_for_cell, estimate_normals, reconstruct, reconstruct_oriented, visibility_consistent,
-    Orientation, PoissonParams, ReconstructParams, TriMesh, Trim,
+    depth_for_cell, estimate_normals_over, reconstruct, reconstruct_oriented,
+    visibility_consistent, Neighbourhood, Orientation, PoissonParams, ReconstructParams, TriMesh,
+    Trim,
 };
 use crate::scenario::Scenario;
 
@@ -81,6 +97,8 @@ pub struct SurfaceOptions {
     /// Poisson grid depth (finest cell = 1.2 × largest extent / 2^depth); `None`: a finest cell
     /// of [`CELL_PER_VOXEL`] imaging voxels, whatever the cloud's extent.
     pub depth: Option<u32>,
+    /// The finest Poisson cell in metres, replacing the default rule (ignored with `depth`).
+    pub cell_m: Option<f32>,
     /// Density trim, fraction of the median vertex support density, in (0, 1]; `None`: no trim
     /// (default [`DEFAULT_TRIM_MEDIAN`], module docs).
     pub trim_median: Option<f32>,
@@ -98,6 +116,7 @@ impl Default for SurfaceOptions {
     fn default() -> Self {
         SurfaceOptions {
             depth: None,
+            cell_m: None,
             trim_median: Some(DEFAULT_TRIM_MEDIAN),
             visibility_filter: false,
             wall_columns: true,
@@ -171,21 +190,23 @@ pub fn surface(
     let t = Instant::now();
     let voxel = sc.imaging.voxel_m;
     let padding = PoissonParams::default().padding;
+    let cell = opts.cell_m.unwrap_or(CELL_PER_VOXEL * voxel);
     let depth = opts
         .depth
-        .unwrap_or_else(|| depth_for_cell(&result.fused.points, padding, CELL_PER_VOXEL * voxel));
+        .unwrap_or_else(|| depth_for_cell(&result.fused.points, padding, cell));
     let clip_box = sc.region();
     let support = support_distance_m(sc, &result.plans);
     let params = ReconstructParams {
         poisson: PoissonParams {
             depth,
             // Without an explicit depth the cell is fixed in metres, whatever the extent.
-            cell_m: opts.depth.is_none().then_some(CELL_PER_VOXEL * voxel),
+            cell_m: opts.depth.is_none().then_some(cell),
             ..PoissonParams::default()
         },
         trim: opts.trim_median.map(Trim::MedianFraction),
         clip_box: Some(clip_box),
         support_distance_m: Some(support),
+        facing_samples: true,
         min_component_fraction: Some(MIN_COMPONENT_FRACTION),
         ..ReconstructParams::default()
     };
@@ -227,7 +248,12 @@ pub fn surface(
         let mut k = keep.iter();
         observers.retain(|_| *k.next().unwrap_or(&true));
     }
-    let normals = estimate_normals(&points, params.normal_k, Orientation::SensorSets(&sensors))?;
+    // Each sample's orientation over the fused points within the support distance (module docs).
+    let neighbourhood = Neighbourhood::Within {
+        radius_m: support,
+        min: params.normal_k,
+    };
+    let normals = estimate_normals_over(&points, neighbourhood, Orientation::SensorSets(&sensors))?;
     let facing: Vec<bool> = points
         .iter()
         .zip(&normals)

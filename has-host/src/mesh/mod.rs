@@ -26,7 +26,7 @@ use crate::knn::GeometryError;
 use crate::metrics;
 
 pub use cluster::{cluster_vertices, simplified_to};
-pub use normals::{estimate_normals, Orientation};
+pub use normals::{estimate_normals, estimate_normals_over, Neighbourhood, Orientation};
 pub use poisson::{
     depth_for_cell, screened_poisson, screened_poisson_weighted, support_density, trim,
     trim_by_density, PoissonOutput, PoissonParams, Trim,
@@ -350,6 +350,53 @@ impl TriMesh {
         Ok(out)
     }
 
+    /// Keeps only the faces that turn the same way as the samples they were reconstructed from:
+    /// a face whose normal (right-hand rule) has a negative dot product with the oriented normal
+    /// of the sample nearest its centroid is dropped. Where the samples are an open sheet — a
+    /// wall seen from one side — screened Poisson closes a thin solid around them, and the solid's
+    /// far side faces away from where the samples' normals say their sensors are: it was never
+    /// seen, and it doubles the surface's area. Degenerate faces are kept.
+    ///
+    /// # Errors
+    /// `normals` not one per sample (field `"normals"`); a bad `samples` cloud
+    /// ([`crate::knn::PointIndex::new`]).
+    pub fn facing_samples(
+        &self,
+        samples: &[Vec3],
+        normals: &[Vec3],
+    ) -> Result<TriMesh, GeometryError> {
+        if normals.len() != samples.len() {
+            return Err(GeometryError::BadParameter {
+                field: "normals",
+                value: normals.len() as f64,
+                expected: "one per sample",
+            });
+        }
+        let index = crate::knn::PointIndex::new("samples", samples)?;
+        let keep: Vec<bool> = self
+            .faces
+            .par_iter()
+            .map(|f| {
+                let [a, b, c] = f.map(|v| self.vertices[v as usize]);
+                let n = (b - a).cross(c - a);
+                let (i, _) = index.nearest((a + b + c) / 3.0);
+                n.dot(normals[i as usize]) >= 0.0
+            })
+            .collect();
+        let mut out = TriMesh {
+            vertices: self.vertices.clone(),
+            faces: self
+                .faces
+                .iter()
+                .zip(&keep)
+                .filter(|(_, &k)| k)
+                .map(|(f, _)| *f)
+                .collect(),
+        };
+        out.remove_unused_vertices();
+        Ok(out)
+    }
+
     /// Drops vertices not used by any face and renumbers the faces (kept vertices keep their
     /// relative order).
     pub fn remove_unused_vertices(&mut self) {
@@ -391,6 +438,10 @@ pub struct ReconstructParams {
     /// After clipping, keep only faces within this distance (m) of an input point
     /// ([`TriMesh::clip_to_support`]); `None` keeps everything.
     pub support_distance_m: Option<f32>,
+    /// After clipping, keep only the faces turned as the samples nearest them
+    /// ([`TriMesh::facing_samples`]): an open sheet of samples gives one surface, not a thin
+    /// closed solid.
+    pub facing_samples: bool,
     /// After trimming and clipping, drop connected components smaller than this fraction of the largest
     /// one's area ([`TriMesh::remove_small_components`]); `None` keeps them all.
     pub min_component_fraction: Option<f32>,
@@ -404,6 +455,7 @@ impl Default for ReconstructParams {
             trim: None,
             clip_box: None,
             support_distance_m: None,
+            facing_samples: false,
             min_component_fraction: None,
         }
     }
@@ -468,6 +520,11 @@ pub fn reconstruct_oriented(
         Some(d) => mesh.clip_to_support(points, d)?,
         None => mesh,
     };
+    let mesh = if params.facing_samples {
+        mesh.facing_samples(points, &normals)?
+    } else {
+        mesh
+    };
     // What other tools reject (coincident vertices, degenerate and duplicate faces, bow-ties),
     // repaired before small components are counted: a fragment that touched the surface at one
     // vertex is then a component of its own.
@@ -527,6 +584,50 @@ mod tests {
         );
         assert!(m.clip_to_support(&[c0], 0.0).is_err());
         assert!(m.clip_to_support(&[c0], f32::NAN).is_err());
+    }
+
+    #[test]
+    fn a_thin_solid_around_an_open_sheet_keeps_only_the_side_its_samples_face() {
+        // What Poisson closes around a roof seen from above: a slab 10 × 10 × 0.2 m, samples on
+        // its mid-plane with normals up. The top stays, the bottom goes, the rims (normals
+        // across the samples') stay; samples turned down keep the bottom instead.
+        let slab = crate::shapes::axis_box(
+            "slab",
+            crate::Material::Concrete,
+            Vec3::new(0.0, 0.0, -0.1),
+            Vec3::new(10.0, 10.0, 0.1),
+        )
+        .unwrap();
+        let m = TriMesh::from_triangles(slab.triangles);
+        let samples: Vec<Vec3> = (0..100)
+            .map(|i| Vec3::new((i % 10) as f32 + 0.5, (i / 10) as f32 + 0.5, 0.0))
+            .collect();
+        let z_of = |m: &TriMesh| -> Vec<i32> {
+            m.faces
+                .iter()
+                .map(|f| {
+                    let [a, b, c] = f.map(|v| m.vertices[v as usize]);
+                    (b - a).cross(c - a).normalize().z.round() as i32
+                })
+                .collect()
+        };
+        let count = |v: &[i32], z: i32| v.iter().filter(|&&x| x == z).count();
+        let all = z_of(&m);
+        assert_eq!((count(&all, 1), count(&all, -1), count(&all, 0)), (2, 2, 8));
+        let up = z_of(&m.facing_samples(&samples, &vec![Vec3::Z; 100]).unwrap());
+        assert_eq!((count(&up, 1), count(&up, -1), count(&up, 0)), (2, 0, 8));
+        let down = z_of(&m.facing_samples(&samples, &vec![-Vec3::Z; 100]).unwrap());
+        assert_eq!(
+            (count(&down, 1), count(&down, -1), count(&down, 0)),
+            (0, 2, 8)
+        );
+        assert!(matches!(
+            m.facing_samples(&samples, &[Vec3::Z]),
+            Err(GeometryError::BadParameter {
+                field: "normals",
+                ..
+            })
+        ));
     }
 
     fn tetra() -> TriMesh {

@@ -57,32 +57,7 @@ pub fn covariance(points: impl Iterator<Item = Vec3> + Clone) -> (DVec3, DMat3) 
 /// # Errors
 /// `k < 3`; fewer than `k` points; a non-finite point.
 pub fn pca_normals(points: &[Vec3], k: usize) -> Result<(Vec<Vec3>, PointIndex), GeometryError> {
-    if k < 3 {
-        return Err(GeometryError::BadParameter {
-            field: "k",
-            value: k as f64,
-            expected: "at least 3 neighbours",
-        });
-    }
-    check_points("points", points)?;
-    if points.len() < k {
-        return Err(GeometryError::TooFew {
-            field: "points",
-            count: points.len(),
-            needed: k,
-        });
-    }
-    let index = PointIndex::new("points", points)?;
-    let normals = points
-        .par_iter()
-        .map(|&p| {
-            let nb = index.knn(p, k);
-            let (_, c) = covariance(nb.iter().map(|&(i, _)| points[i as usize]));
-            let (_, vecs) = symmetric_eigen3(c);
-            vecs[0].as_vec3()
-        })
-        .collect();
-    Ok((normals, index))
+    pca_normals_over(points, Neighbourhood::Nearest(k))
 }
 
 /// Oriented unit normals: PCA over `k` neighbours, oriented as `orientation` says (module docs).
@@ -95,6 +70,106 @@ pub fn estimate_normals(
     k: usize,
     orientation: Orientation<'_>,
 ) -> Result<Vec<Vec3>, GeometryError> {
+    estimate_normals_over(points, Neighbourhood::Nearest(k), orientation)
+}
+
+/// The points a PCA normal is taken over.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Neighbourhood {
+    /// The `k` nearest points (the point included).
+    Nearest(usize),
+    /// Every point within `radius_m` (metres, the point included), or the `min` nearest where
+    /// fewer lie that close.
+    Within {
+        /// Radius, metres.
+        radius_m: f32,
+        /// Fewest points of a neighbourhood.
+        min: usize,
+    },
+}
+
+impl Neighbourhood {
+    /// The fewest points of any neighbourhood.
+    fn min_points(self) -> usize {
+        match self {
+            Neighbourhood::Nearest(k) => k,
+            Neighbourhood::Within { min, .. } => min,
+        }
+    }
+}
+
+/// Unoriented PCA normals over each point's `neighbourhood` (as [`pca_normals`], which is the
+/// [`Neighbourhood::Nearest`] case). The covariance sums the neighbours in index order, so the
+/// result does not depend on the index's traversal or the thread count.
+///
+/// # Errors
+/// As [`pca_normals`] with `k` the neighbourhood's fewest points; a radius that is not finite
+/// and positive.
+pub fn pca_normals_over(
+    points: &[Vec3],
+    neighbourhood: Neighbourhood,
+) -> Result<(Vec<Vec3>, PointIndex), GeometryError> {
+    let min = neighbourhood.min_points();
+    if min < 3 {
+        return Err(GeometryError::BadParameter {
+            field: "k",
+            value: min as f64,
+            expected: "at least 3 neighbours",
+        });
+    }
+    check_points("points", points)?;
+    if points.len() < min {
+        return Err(GeometryError::TooFew {
+            field: "points",
+            count: points.len(),
+            needed: min,
+        });
+    }
+    if let Neighbourhood::Within { radius_m, .. } = neighbourhood {
+        if !(radius_m.is_finite() && radius_m > 0.0) {
+            return Err(GeometryError::BadParameter {
+                field: "radius_m",
+                value: radius_m as f64,
+                expected: "finite and positive",
+            });
+        }
+    }
+    let index = PointIndex::new("points", points)?;
+    let normal_of = |nb: &mut dyn Iterator<Item = u32>| {
+        let nb: Vec<u32> = nb.collect();
+        let (_, c) = covariance(nb.iter().map(|&i| points[i as usize]));
+        let (_, vecs) = symmetric_eigen3(c);
+        vecs[0].as_vec3()
+    };
+    let normals = points
+        .par_iter()
+        .map(|&p| match neighbourhood {
+            // Summed nearest first.
+            Neighbourhood::Nearest(k) => normal_of(&mut index.knn(p, k).into_iter().map(|n| n.0)),
+            Neighbourhood::Within { radius_m, min } => {
+                let mut nb: Vec<u32> = index.within(p, radius_m).into_iter().map(|n| n.0).collect();
+                if nb.len() < min {
+                    nb = index.knn(p, min).into_iter().map(|n| n.0).collect();
+                }
+                nb.sort_unstable();
+                normal_of(&mut nb.into_iter())
+            }
+        })
+        .collect();
+    Ok((normals, index))
+}
+
+/// Oriented unit normals: PCA over each point's `neighbourhood`, oriented as `orientation` says
+/// (module docs).
+///
+/// # Errors
+/// As [`estimate_normals`] and [`pca_normals_over`].
+pub fn estimate_normals_over(
+    points: &[Vec3],
+    neighbourhood: Neighbourhood,
+    orientation: Orientation<'_>,
+) -> Result<Vec<Vec3>, GeometryError> {
+    let k = neighbourhood.min_points();
     let bad_len = |n: usize| GeometryError::BadParameter {
         field: "sensors",
         value: n as f64,
@@ -130,7 +205,7 @@ pub fn estimate_normals(
         }
         Orientation::Propagate => {}
     }
-    let (mut normals, index) = pca_normals(points, k)?;
+    let (mut normals, index) = pca_normals_over(points, neighbourhood)?;
     match orientation {
         Orientation::Sensors(s) => {
             normals.par_iter_mut().enumerate().for_each(|(i, n)| {
@@ -275,6 +350,63 @@ mod tests {
         let inside: Vec<Vec<Vec3>> = pts.iter().map(|_| vec![c, c + Vec3::X * 0.1]).collect();
         let n = estimate_normals(&pts, 16, Orientation::SensorSets(&inside)).unwrap();
         assert!(pts.iter().zip(&n).all(|(p, n)| n.dot(*p - c) < 0.0));
+    }
+
+    /// A wall imaged as the fused cloud holds it: samples on a 0.25 m lattice in the plane
+    /// x = 0, each displaced across the wall by up to ±0.6 m (a resolution cell's scatter).
+    fn scattered_wall() -> Vec<Vec3> {
+        use rand::{Rng, SeedableRng};
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(7);
+        let mut pts = Vec::new();
+        for iy in 0..80 {
+            for iz in 0..40 {
+                let x = rng.random_range(-0.6f32..0.6);
+                pts.push(Vec3::new(x, iy as f32 * 0.25, iz as f32 * 0.25));
+            }
+        }
+        pts
+    }
+
+    fn median_tilt_deg(normals: &[Vec3]) -> f32 {
+        let mut a: Vec<f32> = normals
+            .iter()
+            .map(|n| n.x.abs().clamp(0.0, 1.0).acos().to_degrees())
+            .collect();
+        a.sort_by(f32::total_cmp);
+        a[a.len() / 2]
+    }
+
+    #[test]
+    fn a_scattered_wall_has_its_normal_over_a_cell_and_not_over_sixteen_neighbours() {
+        // Sixteen neighbours span ~0.6 m of wall, as much as the scatter across it: their PCA
+        // normal is noise. Every sample within 2 m spans the wall's extent well beyond the
+        // scatter: tilt ~ σ/(R/2)/√N with σ ≈ 0.35, R = 2, N ≈ 200, about 2°.
+        let pts = scattered_wall();
+        let (k16, _) = pca_normals(&pts, 16).unwrap();
+        let within = Neighbourhood::Within {
+            radius_m: 2.0,
+            min: 16,
+        };
+        let (cell, _) = pca_normals_over(&pts, within).unwrap();
+        let (t16, tcell) = (median_tilt_deg(&k16), median_tilt_deg(&cell));
+        assert!(t16 > 20.0, "16 neighbours: {t16}°");
+        assert!(tcell < 6.0, "within 2 m: {tcell}°");
+        // A radius that holds fewer than `min` points takes the `min` nearest instead.
+        let tiny = Neighbourhood::Within {
+            radius_m: 1e-3,
+            min: 16,
+        };
+        let ttiny = median_tilt_deg(&pca_normals_over(&pts, tiny).unwrap().0);
+        assert!((ttiny - t16).abs() < 0.01, "{ttiny}° vs {t16}°");
+        for radius_m in [0.0, -1.0, f32::NAN, f32::INFINITY] {
+            assert!(matches!(
+                pca_normals_over(&pts, Neighbourhood::Within { radius_m, min: 16 }),
+                Err(GeometryError::BadParameter {
+                    field: "radius_m",
+                    ..
+                })
+            ));
+        }
     }
 
     #[test]
