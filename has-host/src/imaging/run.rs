@@ -773,7 +773,9 @@ pub fn drop_finer_heights(sc: &Scenario, plans: &[PairPlan], fused: FusedCloud) 
     }
     let extents = vertical_extents(sc, plans, &fused);
     // The fused points are finite voxel positions; an index error leaves the cloud as it is.
-    let Ok(drop) = placed_finer(&fused.points, &extents, sc.imaging.voxel_m) else {
+    // Normals over a resolution cell, as the mesher's (imaging::surface).
+    let radius = support_distance_m(sc, plans);
+    let Ok(drop) = placed_finer(&fused.points, &extents, sc.imaging.voxel_m, radius) else {
         return fused;
     };
     let keep: Vec<bool> = drop.iter().map(|&d| !d).collect();
