@@ -269,17 +269,7 @@ impl TriMesh {
             .iter()
             .map(|&a| a >= min_fraction as f64 * largest)
             .collect();
-        let mut out = TriMesh {
-            vertices: self.vertices.clone(),
-            faces: self
-                .faces
-                .iter()
-                .zip(&labels)
-                .filter(|(_, &l)| keep[l as usize])
-                .map(|(f, _)| *f)
-                .collect(),
-        };
-        out.remove_unused_vertices();
+        let out = self.with_faces_where(|f| keep[labels[f] as usize]);
         Ok(out)
     }
 
@@ -301,16 +291,11 @@ impl TriMesh {
             }
         }
         let inside = |v: Vec3| v.cmpge(min).all() && v.cmple(max).all();
-        let mut out = TriMesh {
-            vertices: self.vertices.clone(),
-            faces: self
-                .faces
+        let out = self.with_faces_where(|f| {
+            self.faces[f]
                 .iter()
-                .copied()
-                .filter(|f| f.iter().all(|&v| inside(self.vertices[v as usize])))
-                .collect(),
-        };
-        out.remove_unused_vertices();
+                .all(|&v| inside(self.vertices[v as usize]))
+        });
         Ok(out)
     }
 
@@ -336,17 +321,7 @@ impl TriMesh {
             .map(|f| f.iter().map(|&v| self.vertices[v as usize]).sum::<Vec3>() / 3.0)
             .collect();
         let d2 = index.nearest_sq_many(&centroids);
-        let mut out = TriMesh {
-            vertices: self.vertices.clone(),
-            faces: self
-                .faces
-                .iter()
-                .zip(&d2)
-                .filter(|(_, &d)| d <= max_m * max_m)
-                .map(|(f, _)| *f)
-                .collect(),
-        };
-        out.remove_unused_vertices();
+        let out = self.with_faces_where(|f| d2[f] <= max_m * max_m);
         Ok(out)
     }
 
@@ -383,18 +358,22 @@ impl TriMesh {
                 n.dot(normals[i as usize]) >= 0.0
             })
             .collect();
+        let out = self.with_faces_where(|f| keep[f]);
+        Ok(out)
+    }
+
+    /// The faces `f` (by index) for which `keep(f)` holds, in order, without the vertices no kept
+    /// face uses.
+    fn with_faces_where(&self, keep: impl Fn(usize) -> bool) -> TriMesh {
         let mut out = TriMesh {
             vertices: self.vertices.clone(),
-            faces: self
-                .faces
-                .iter()
-                .zip(&keep)
-                .filter(|(_, &k)| k)
-                .map(|(f, _)| *f)
+            faces: (0..self.faces.len())
+                .filter(|&f| keep(f))
+                .map(|f| self.faces[f])
                 .collect(),
         };
         out.remove_unused_vertices();
-        Ok(out)
+        out
     }
 
     /// Drops vertices not used by any face and renumbers the faces (kept vertices keep their
