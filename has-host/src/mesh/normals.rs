@@ -135,28 +135,30 @@ pub fn pca_normals_over(
         }
     }
     let index = PointIndex::new("points", points)?;
-    let normal_of = |nb: &mut dyn Iterator<Item = u32>| {
-        let nb: Vec<u32> = nb.collect();
-        let (_, c) = covariance(nb.iter().map(|&i| points[i as usize]));
-        let (_, vecs) = symmetric_eigen3(c);
-        vecs[0].as_vec3()
-    };
     let normals = points
         .par_iter()
         .map(|&p| match neighbourhood {
             // Summed nearest first.
-            Neighbourhood::Nearest(k) => normal_of(&mut index.knn(p, k).into_iter().map(|n| n.0)),
+            Neighbourhood::Nearest(k) => {
+                pca_normal(index.knn(p, k).iter().map(|n| points[n.0 as usize]))
+            }
             Neighbourhood::Within { radius_m, min } => {
                 let mut nb: Vec<u32> = index.within(p, radius_m).into_iter().map(|n| n.0).collect();
                 if nb.len() < min {
                     nb = index.knn(p, min).into_iter().map(|n| n.0).collect();
                 }
                 nb.sort_unstable();
-                normal_of(&mut nb.into_iter())
+                pca_normal(nb.iter().map(|&i| points[i as usize]))
             }
         })
         .collect();
     Ok((normals, index))
+}
+
+/// The eigenvector of the smallest eigenvalue of `points`' covariance (unit, unoriented).
+fn pca_normal(points: impl Iterator<Item = Vec3> + Clone) -> Vec3 {
+    let (_, c) = covariance(points);
+    symmetric_eigen3(c).1[0].as_vec3()
 }
 
 /// Oriented unit normals: PCA over each point's `neighbourhood`, oriented as `orientation` says
