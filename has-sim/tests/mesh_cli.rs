@@ -1,16 +1,39 @@
 //! `has-sim mesh` from the command line: a small sphere cloud meshes into a closed OBJ; bad
 //! input fails with one readable line naming the problem.
 
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::Command;
 
 use glam::Vec3;
 use has_host::io::{ply, PlyData, PlyFormat};
 
-fn tmp(name: &str) -> PathBuf {
+/// A scratch directory, removed with everything in it when dropped.
+struct TempDir(PathBuf);
+
+impl std::ops::Deref for TempDir {
+    type Target = Path;
+    fn deref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl AsRef<Path> for TempDir {
+    fn as_ref(&self) -> &Path {
+        &self.0
+    }
+}
+
+impl Drop for TempDir {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn tmp(name: &str) -> TempDir {
     let d = std::env::temp_dir().join(format!("has_mesh_cli_{}_{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    d
+    TempDir(d)
 }
 
 fn has_sim(args: &[&str]) -> (bool, String, String) {

@@ -333,14 +333,36 @@ pub(crate) fn file_stem(path: &Path) -> String {
 
 #[cfg(test)]
 pub(crate) mod testutil {
-    use std::path::PathBuf;
+    use std::path::{Path, PathBuf};
 
-    /// A fresh, empty directory under the target's temp dir, unique per test name.
-    pub fn tmp_dir(name: &str) -> PathBuf {
+    /// A scratch directory, removed with everything in it when dropped.
+    pub struct TempDir(PathBuf);
+
+    impl std::ops::Deref for TempDir {
+        type Target = Path;
+        fn deref(&self) -> &Path {
+            &self.0
+        }
+    }
+
+    impl AsRef<Path> for TempDir {
+        fn as_ref(&self) -> &Path {
+            &self.0
+        }
+    }
+
+    impl Drop for TempDir {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    /// A fresh, empty directory under the system's temp dir, unique per test name and process.
+    pub fn tmp_dir(name: &str) -> TempDir {
         let d = std::env::temp_dir().join(format!("has-io-{}-{name}", std::process::id()));
         let _ = std::fs::remove_dir_all(&d);
         std::fs::create_dir_all(&d).unwrap();
-        d
+        TempDir(d)
     }
 }
 
