@@ -1,39 +1,17 @@
 //! `has-sim mesh` from the command line: a small sphere cloud meshes into a closed OBJ; bad
 //! input fails with one readable line naming the problem.
 
-use std::path::{Path, PathBuf};
+use std::path::PathBuf;
 use std::process::Command;
 
 use glam::Vec3;
 use has_host::io::{ply, PlyData, PlyFormat};
 
-/// A scratch directory, removed with everything in it when dropped.
-struct TempDir(PathBuf);
-
-impl std::ops::Deref for TempDir {
-    type Target = Path;
-    fn deref(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl AsRef<Path> for TempDir {
-    fn as_ref(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
-
-fn tmp(name: &str) -> TempDir {
+fn tmp(name: &str) -> PathBuf {
     let d = std::env::temp_dir().join(format!("has_mesh_cli_{}_{name}", std::process::id()));
     let _ = std::fs::remove_dir_all(&d);
     std::fs::create_dir_all(&d).unwrap();
-    TempDir(d)
+    d
 }
 
 fn has_sim(args: &[&str]) -> (bool, String, String) {
@@ -96,6 +74,7 @@ fn mesh_command_writes_a_watertight_obj_and_reports_metrics() {
     let cell = r["mesh"]["cell_m"].as_f64().unwrap();
     assert!(cd < cell, "√CD {cd} cell {cell}");
     assert_eq!(r["mesh"]["topology"]["watertight"], true);
+    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
@@ -152,6 +131,7 @@ fn mesh_command_rejects_bad_input_with_a_named_error() {
     assert!(!ok && err.contains("/nonexistent/truth.ply"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
     assert!(!obj.exists());
+    let _ = std::fs::remove_dir_all(&d);
 }
 
 #[test]
@@ -215,4 +195,5 @@ fn an_intensity_property_weights_the_samples_unless_told_otherwise() {
     ]);
     assert!(!ok && err.contains("snr"), "{err}");
     assert_eq!(err.trim().lines().count(), 1, "{err}");
+    let _ = std::fs::remove_dir_all(&d);
 }

@@ -378,6 +378,21 @@ mod tests {
         (p, n, w)
     }
 
+    /// Appends a row of samples at `y`, height `z`, over the wall's four lattice columns.
+    fn add_row(
+        (p, n, w): &mut (Vec<Vec3>, Vec<Vec3>, Vec<f32>),
+        y: f32,
+        z: f32,
+        normal: Vec3,
+        weight: f32,
+    ) {
+        for k in 0..4 {
+            p.push(Vec3::new(0.25 + 0.5 * k as f32, y, z));
+            n.push(normal);
+            w.push(weight);
+        }
+    }
+
     #[test]
     fn a_wall_seen_only_above_continues_to_the_terrain() {
         let (p, n, w) = wall(6.0, 10.0);
@@ -404,15 +419,11 @@ mod tests {
         // A wall imaged as a slab: at its lower rim a neighbourhood is half a slab, and the PCA
         // normal turns vertical (two rows at 5.0 and 5.5 m facing down). The wall continues
         // under the rim, not under its lowest wall-facing sample.
-        let (mut p, mut n, mut w) = wall(6.0, 10.0);
+        let mut s = wall(6.0, 10.0);
         for z in [5.0, 5.5] {
-            for k in 0..4 {
-                p.push(Vec3::new(0.25 + 0.5 * k as f32, -0.1, z));
-                n.push(Vec3::NEG_Z);
-                w.push(0.5);
-            }
+            add_row(&mut s, -0.1, z, Vec3::NEG_Z, 0.5);
         }
-        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5));
+        let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5));
         assert_eq!(c.columns, 4);
         // Each column from 4.5 m down to the terrain at 0.5 m: 9 samples.
         assert_eq!(c.points.len(), 4 * 9);
@@ -429,41 +440,29 @@ mod tests {
         // Stray samples half a metre in front of the face (normals up: not walls) at 6.25 and
         // 9.25 m: within a resolution cell ahead they only close the front at their own height,
         // the face between them is still the outer face of the wall's image.
-        let (mut p, mut n, mut w) = wall(6.0, 10.0);
+        let mut s = wall(6.0, 10.0);
         for z in [6.25, 9.25] {
-            for k in 0..4 {
-                p.push(Vec3::new(0.25 + 0.5 * k as f32, -0.6, z));
-                n.push(Vec3::Z);
-                w.push(0.1);
-            }
+            add_row(&mut s, -0.6, z, Vec3::Z, 0.1);
         }
-        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5));
+        let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5));
         assert_eq!(c.columns, 4);
         // Each column from under the image's bottom (6.0 m) at 5.5 m down to 0.5 m.
         assert_eq!(c.points.len(), 4 * 11);
         // The same strays two metres ahead, where the street should be open, close the front.
-        let (mut p, mut n, mut w) = wall(6.0, 10.0);
+        let mut s = wall(6.0, 10.0);
         for z in [6.25, 7.75, 9.25] {
-            for k in 0..4 {
-                p.push(Vec3::new(0.25 + 0.5 * k as f32, -3.1, z));
-                n.push(Vec3::Z);
-                w.push(0.1);
-            }
+            add_row(&mut s, -3.1, z, Vec3::Z, 0.1);
         }
-        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5));
+        let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5));
         assert!(c.points.is_empty(), "{}", c.points.len());
     }
 
     #[test]
     fn a_wall_rising_from_a_lower_roof_stops_at_the_roof() {
         // A tower's wall from 12 m up, the hall's roof (normal up) at 8 m in the same columns.
-        let (mut p, mut n, mut w) = wall(12.0, 20.0);
-        for k in 0..4 {
-            p.push(Vec3::new(0.25 + 0.5 * k as f32, -0.2, 8.0));
-            n.push(Vec3::Z);
-            w.push(1.0);
-        }
-        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5));
+        let mut s = wall(12.0, 20.0);
+        add_row(&mut s, -0.2, 8.0, Vec3::Z, 1.0);
+        let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5));
         let zmin = c.points.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
         assert!((zmin - 8.5).abs() < 1e-4, "{zmin}");
         assert_eq!(c.points.len(), 4 * 7);
