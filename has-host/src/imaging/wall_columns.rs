@@ -27,8 +27,9 @@
 //! voxel lattice (`cell_m` × `cell_m` in x and y), below the column's lowest wall sample and the
 //! rest of its image under it (samples reached down the column without a gap over one and a
 //! half cells: at the lower rim of a wall's image the PCA normals turn vertical and the rim reads
-//! as roof) and down to the first lower sample of the column or of its neighbours (a lower roof the wall rises from, or the wall's lower part imaged half a cell
-//! aside) or, where there is none, to the known terrain, [`wall_columns`] places samples every
+//! as roof) and down to the first lower sample of the column or of its neighbours (a lower roof
+//! the wall rises from, or the wall's lower part imaged half a cell aside) or, where there is
+//! none, to the known terrain, [`wall_columns`] places samples every
 //! `cell_m` with the wall sample's normal and weight — where a neighbouring column continues too:
 //! a wall is a surface, and one column alone is one normal's say-so whose support band would
 //! carry metres of mesh (the rotated factory, quick: two such columns from roof samples with
