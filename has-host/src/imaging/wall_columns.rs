@@ -379,6 +379,15 @@ mod tests {
         (p, n, w)
     }
 
+    /// The lowest and the highest added sample's height.
+    fn z_range(c: &WallColumns) -> (f32, f32) {
+        c.points
+            .iter()
+            .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), p| {
+                (lo.min(p.z), hi.max(p.z))
+            })
+    }
+
     /// Appends a row of samples at `y`, height `z`, over the wall's four lattice columns.
     fn add_row(
         (p, n, w): &mut (Vec<Vec3>, Vec<Vec3>, Vec<f32>),
@@ -401,12 +410,7 @@ mod tests {
         assert_eq!(c.columns, 4);
         // Each column from 5.5 m down to the terrain at 0.5 m: 11 samples.
         assert_eq!(c.points.len(), 4 * 11);
-        let zmin = c.points.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
-        let zmax = c
-            .points
-            .iter()
-            .map(|p| p.z)
-            .fold(f32::NEG_INFINITY, f32::max);
+        let (zmin, zmax) = z_range(&c);
         assert!(
             (zmin - 0.5).abs() < 1e-4 && (zmax - 5.5).abs() < 1e-4,
             "{zmin} {zmax}"
@@ -428,11 +432,7 @@ mod tests {
         assert_eq!(c.columns, 4);
         // Each column from 4.5 m down to the terrain at 0.5 m: 9 samples.
         assert_eq!(c.points.len(), 4 * 9);
-        let zmax = c
-            .points
-            .iter()
-            .map(|p| p.z)
-            .fold(f32::NEG_INFINITY, f32::max);
+        let (_, zmax) = z_range(&c);
         assert!((zmax - 4.5).abs() < 1e-4, "{zmax}");
     }
 
@@ -464,7 +464,7 @@ mod tests {
         let mut s = wall(12.0, 20.0);
         add_row(&mut s, -0.2, 8.0, Vec3::Z, 1.0);
         let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5));
-        let zmin = c.points.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
+        let (zmin, _) = z_range(&c);
         assert!((zmin - 8.5).abs() < 1e-4, "{zmin}");
         assert_eq!(c.points.len(), 4 * 7);
     }
@@ -492,7 +492,7 @@ mod tests {
         n.extend(ln);
         w.extend(lw);
         let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5));
-        let zmin = c.points.iter().map(|p| p.z).fold(f32::INFINITY, f32::min);
+        let (zmin, _) = z_range(&c);
         assert!((zmin - 3.5).abs() < 1e-4, "{zmin}");
     }
 
@@ -604,7 +604,7 @@ mod tests {
             assert!(q.z >= 0.5 - 1e-4 && q.z <= 9.5 + 1e-4, "{q}");
         }
         assert!(c.weights.iter().all(|&w| w == 0.7));
-        let zmin = c.points.iter().map(|q| q.z).fold(f32::INFINITY, f32::min);
+        let (zmin, _) = z_range(&c);
         assert!((zmin - 0.5).abs() < 1e-4, "{zmin}");
     }
 
