@@ -62,7 +62,8 @@
 //! - below the lowest sample of each wall, samples down to what the wall stands on — a lower
 //!   roof of the cloud or the known terrain ([`super::wall_columns`], on by default,
 //!   [`SurfaceOptions::wall_columns`]): what no pair saw of a wall whose upper part they did;
-//! - under each outer edge of an imaged roof, a wall down to the terrain
+//! - under each outer edge of an imaged roof (the imaging region's border is none: nothing was
+//!   imaged beyond it), a wall down to the terrain
 //!   ([`super::wall_columns::roof_edge_walls`], on by default,
 //!   [`SurfaceOptions::roof_edge_walls`]): the walls no pair saw at all under roofs that pairs
 //!   did see;
@@ -306,13 +307,15 @@ pub fn surface(
     let (mut wall_column_samples, mut roof_edge_samples) = (0, 0);
     if let Some(terrain) = terrain {
         let floor = |p: Vec3| terrain.below(p).map(|g| g.z.max(clip_box.0.z));
+        // The imaging region's footprint: beyond it nothing was imaged (module docs).
+        let imaged = |p: Vec3| sc.in_region(p.with_z(clip_box.0.z));
         if opts.wall_columns {
-            let w = wall_columns(&points, &normals, &weights, voxel, support, floor);
+            let w = wall_columns(&points, &normals, &weights, voxel, support, floor, imaged);
             fit.extend(w.normals.iter().copied());
             wall_column_samples = w.append_to(&mut points, &mut normals, &mut weights);
         }
         if opts.roof_edge_walls {
-            let w = roof_edge_walls(&points, &normals, &weights, voxel, support, floor);
+            let w = roof_edge_walls(&points, &normals, &weights, voxel, support, floor, imaged);
             fit.extend(w.normals.iter().copied());
             roof_edge_samples = w.append_to(&mut points, &mut normals, &mut weights);
         }

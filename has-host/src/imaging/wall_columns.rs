@@ -43,6 +43,12 @@
 //! that looks out over open ground is a building's edge, and a wall stands under it down to the
 //! terrain.
 //!
+//! **Beyond the imaging region nothing was imaged**, so nothing is known to be open there: a
+//! wall's front and a roof's open sector count only where the region reaches two `front_m` past
+//! the sample (the street in front of a face). A region drawn through a building otherwise stood
+//! a wall along the cut (the factory with its region ending at x = 5 m, inside the hall, quick:
+//! 23 of 28 roof-edge columns along the cut, the mesh's false surface 8.9 %; 0.8 % without them).
+//!
 //! Only the mesh uses them: the fused cloud (what the pairs detected) is unchanged, and where the
 //! terrain is not known nothing is added. Units: metres, world frame; z up.
 
@@ -137,7 +143,9 @@ fn usable(cell_m: f32, front_m: f32) -> bool {
 /// neighbour continues too (module docs). `points`, `normals` (unit, oriented) and `weights`
 /// are the mesher's input, one entry each per sample; `front_m` the depth of the open front a
 /// wall needs; `floor(p)` is the height the column under `p` ends at (the known terrain, not
-/// below the imaging region), `None` where it is not known. Deterministic: columns in lattice
+/// below the imaging region), `None` where it is not known; `imaged(p)` whether the imaging
+/// region covers `p` in xy — a front that reaches beyond it is not known to be open (module
+/// docs). Deterministic: columns in lattice
 /// order, samples top down.
 pub fn wall_columns(
     points: &[Vec3],
@@ -146,6 +154,7 @@ pub fn wall_columns(
     cell_m: f32,
     front_m: f32,
     floor: impl Fn(Vec3) -> Option<f32>,
+    imaged: impl Fn(Vec3) -> bool,
 ) -> WallColumns {
     let mut out = WallColumns::default();
     if !usable(cell_m, front_m) {
@@ -171,11 +180,12 @@ pub fn wall_columns(
     let steps = (front_m / cell_m).ceil() as i64;
     let open_front = |p: Vec3, n: Vec3| {
         let ahead = Vec3::new(n.x, n.y, 0.0).normalize_or_zero();
-        (1..=2 * steps).all(|j| {
-            let q = lattice(p + ahead * (j as f32 * cell_m));
-            let dz = if j <= steps { 1 } else { steps };
-            (-dz..=dz).all(|dz| !occupied.contains(&(q.0, q.1, q.2 + dz)))
-        })
+        imaged(p + ahead * (2 * steps) as f32 * cell_m)
+            && (1..=2 * steps).all(|j| {
+                let q = lattice(p + ahead * (j as f32 * cell_m));
+                let dz = if j <= steps { 1 } else { steps };
+                (-dz..=dz).all(|dz| !occupied.contains(&(q.0, q.1, q.2 + dz)))
+            })
     };
     // Per lattice column: the lowest wall sample (index) and every sample's height.
     #[derive(Default)]
@@ -254,6 +264,7 @@ pub fn roof_edge_walls(
     cell_m: f32,
     front_m: f32,
     floor: impl Fn(Vec3) -> Option<f32>,
+    imaged: impl Fn(Vec3) -> bool,
 ) -> WallColumns {
     let mut out = WallColumns::default();
     if !usable(cell_m, front_m) {
@@ -290,6 +301,9 @@ pub fn roof_edge_walls(
     }
     // Whether, looking from `p` along `u`, the cloud stays above `z` as far as it reaches.
     let open = |p: Vec3, u: Vec3, z: f32| {
+        if !imaged(p + u * (2.0 * front_m)) {
+            return false;
+        }
         let own = key(p);
         let mut t = cell_m;
         loop {
@@ -406,7 +420,7 @@ mod tests {
     #[test]
     fn a_wall_seen_only_above_continues_to_the_terrain() {
         let (p, n, w) = wall(6.0, 10.0);
-        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5));
+        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5), |_| true);
         assert_eq!(c.columns, 4);
         // Each column from 5.5 m down to the terrain at 0.5 m: 11 samples.
         assert_eq!(c.points.len(), 4 * 11);
@@ -428,7 +442,7 @@ mod tests {
         for z in [5.0, 5.5] {
             add_row(&mut s, -0.1, z, Vec3::NEG_Z, 0.5);
         }
-        let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5));
+        let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5), |_| true);
         assert_eq!(c.columns, 4);
         // Each column from 4.5 m down to the terrain at 0.5 m: 9 samples.
         assert_eq!(c.points.len(), 4 * 9);
@@ -445,7 +459,7 @@ mod tests {
         for z in [6.25, 9.25] {
             add_row(&mut s, -0.6, z, Vec3::Z, 0.1);
         }
-        let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5));
+        let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5), |_| true);
         assert_eq!(c.columns, 4);
         // Each column from under the image's bottom (6.0 m) at 5.5 m down to 0.5 m.
         assert_eq!(c.points.len(), 4 * 11);
@@ -454,7 +468,7 @@ mod tests {
         for z in [6.25, 7.75, 9.25] {
             add_row(&mut s, -3.1, z, Vec3::Z, 0.1);
         }
-        let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5));
+        let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5), |_| true);
         assert!(c.points.is_empty(), "{}", c.points.len());
     }
 
@@ -463,7 +477,7 @@ mod tests {
         // A tower's wall from 12 m up, the hall's roof (normal up) at 8 m in the same columns.
         let mut s = wall(12.0, 20.0);
         add_row(&mut s, -0.2, 8.0, Vec3::Z, 1.0);
-        let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5));
+        let c = wall_columns(&s.0, &s.1, &s.2, 0.5, 2.0, |_| Some(0.5), |_| true);
         let (zmin, _) = z_range(&c);
         assert!((zmin - 8.5).abs() < 1e-4, "{zmin}");
         assert_eq!(c.points.len(), 4 * 7);
@@ -482,6 +496,7 @@ mod tests {
             0.5,
             2.0,
             |_| Some(0.5),
+            |_| true,
         );
         assert!(c.points.is_empty());
         // The wall's lower part imaged half a cell behind its upper part (the image is a
@@ -491,7 +506,7 @@ mod tests {
         p.extend(lp.iter().map(|q| *q + Vec3::new(0.0, 0.5, 0.0)));
         n.extend(ln);
         w.extend(lw);
-        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5));
+        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5), |_| true);
         let (zmin, _) = z_range(&c);
         assert!((zmin - 3.5).abs() < 1e-4, "{zmin}");
     }
@@ -515,7 +530,7 @@ mod tests {
             }
         }
         let w = vec![1.0; p.len()];
-        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5));
+        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5), |_| true);
         assert!(!c.points.is_empty());
         // Facing −y, only the row at the slab's −y rim has nothing ahead of it.
         assert!(
@@ -530,7 +545,7 @@ mod tests {
     fn roofs_and_walls_seen_to_the_ground_add_nothing_nor_does_an_unknown_terrain() {
         // A wall imaged down to the terrain.
         let (p, n, w) = wall(0.5, 10.0);
-        assert!(wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5))
+        assert!(wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5), |_| true)
             .points
             .is_empty());
         // A flat roof: no wall sample.
@@ -539,26 +554,34 @@ mod tests {
             .collect();
         let up = vec![Vec3::Z; roof.len()];
         assert!(
-            wall_columns(&roof, &up, &[1.0; 16], 0.5, 2.0, |_| Some(0.5))
+            wall_columns(&roof, &up, &[1.0; 16], 0.5, 2.0, |_| Some(0.5), |_| true)
                 .points
                 .is_empty()
         );
         // A pitched roof at 45°: not a wall either.
         let tilted = vec![Vec3::new(0.0, -1.0, 1.0).normalize(); roof.len()];
-        assert!(
-            wall_columns(&roof, &tilted, &[1.0; 16], 0.5, 2.0, |_| Some(0.5))
-                .points
-                .is_empty()
-        );
+        assert!(wall_columns(
+            &roof,
+            &tilted,
+            &[1.0; 16],
+            0.5,
+            2.0,
+            |_| Some(0.5),
+            |_| true
+        )
+        .points
+        .is_empty());
         // A wall seen above, but no terrain known under it.
         let (p, n, w) = wall(6.0, 10.0);
-        assert!(wall_columns(&p, &n, &w, 0.5, 2.0, |_| None)
+        assert!(wall_columns(&p, &n, &w, 0.5, 2.0, |_| None, |_| true)
             .points
             .is_empty());
         // A nonsensical cell.
-        assert!(wall_columns(&p, &n, &w, f32::NAN, 2.0, |_| Some(0.5))
-            .points
-            .is_empty());
+        assert!(
+            wall_columns(&p, &n, &w, f32::NAN, 2.0, |_| Some(0.5), |_| true)
+                .points
+                .is_empty()
+        );
     }
 
     /// A flat roof at `z`, sampled every 0.5 m over `[x0, x1] × [y0, y1]` (normals up), less the
@@ -587,7 +610,7 @@ mod tests {
 
     fn edges(p: &[Vec3], floor: Option<f32>) -> WallColumns {
         let n = vec![Vec3::Z; p.len()];
-        roof_edge_walls(p, &n, &vec![0.7; p.len()], 0.5, 2.0, |_| floor)
+        roof_edge_walls(p, &n, &vec![0.7; p.len()], 0.5, 2.0, |_| floor, |_| true)
     }
 
     #[test]
@@ -638,7 +661,15 @@ mod tests {
             }
             z += 0.5;
         }
-        let c = roof_edge_walls(&p, &n, &vec![1.0; p.len()], 0.5, 2.0, |_| Some(0.5));
+        let c = roof_edge_walls(
+            &p,
+            &n,
+            &vec![1.0; p.len()],
+            0.5,
+            2.0,
+            |_| Some(0.5),
+            |_| true,
+        );
         assert!(
             c.points.is_empty(),
             "{} samples: {:?}",
@@ -670,19 +701,54 @@ mod tests {
     }
 
     #[test]
+    fn the_imaging_regions_border_is_no_roof_edge() {
+        // A roof imaged up to the border of the imaging region at x = 10.5 m: the building may
+        // go on beyond it, nothing there was imaged. Walls stand on the other three sides only.
+        let p = roof((0.25, 10.25), (0.25, 10.25), 10.0, |_| false);
+        let n = vec![Vec3::Z; p.len()];
+        let inside = |q: Vec3| q.x <= 10.5;
+        let c = roof_edge_walls(&p, &n, &vec![0.7; p.len()], 0.5, 2.0, |_| Some(0.5), inside);
+        assert!(
+            c.points.iter().any(|q| q.x < 1.0),
+            "no wall on the far side"
+        );
+        for (q, m) in c.points.iter().zip(&c.normals) {
+            assert!(m.x < 0.7, "a wall at {q} faces {m}, out of the region");
+        }
+        // The whole roof in the region: the border side has its wall again.
+        let all = edges(&p, Some(0.5));
+        assert!(all.points.iter().zip(&all.normals).any(|(_, m)| m.x > 0.7));
+    }
+
+    #[test]
+    fn a_wall_facing_out_of_the_imaging_region_near_its_border_is_not_continued() {
+        // The wall faces −y at y = −0.1; the region ends 1 m in front of it, within the street
+        // its front test asks to be open: nothing is known to be open there.
+        let (p, n, w) = wall(6.0, 10.0);
+        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5), |q| q.y > -1.1);
+        assert!(c.points.is_empty(), "{}", c.points.len());
+        let c = wall_columns(&p, &n, &w, 0.5, 2.0, |_| Some(0.5), |q| q.y > -10.0);
+        assert_eq!(c.columns, 4);
+    }
+
+    #[test]
     fn no_terrain_no_walls_nor_from_walls_or_with_a_bad_cell() {
         let p = roof((0.25, 10.25), (0.25, 10.25), 10.0, |_| false);
         assert!(edges(&p, None).points.is_empty());
         assert!(edges(&[], Some(0.5)).points.is_empty());
         let n = vec![Vec3::Z; p.len()];
         let w = vec![1.0; p.len()];
-        assert!(roof_edge_walls(&p, &n, &w, f32::NAN, 2.0, |_| Some(0.5))
-            .points
-            .is_empty());
+        assert!(
+            roof_edge_walls(&p, &n, &w, f32::NAN, 2.0, |_| Some(0.5), |_| true)
+                .points
+                .is_empty()
+        );
         // A wall's samples (normals level) are not a roof.
         let (wp, wn, ww) = wall(6.0, 10.0);
-        assert!(roof_edge_walls(&wp, &wn, &ww, 0.5, 2.0, |_| Some(0.5))
-            .points
-            .is_empty());
+        assert!(
+            roof_edge_walls(&wp, &wn, &ww, 0.5, 2.0, |_| Some(0.5), |_| true)
+                .points
+                .is_empty()
+        );
     }
 }
