@@ -145,8 +145,7 @@ fn usable(cell_m: f32, front_m: f32) -> bool {
 /// wall needs; `floor(p)` is the height the column under `p` ends at (the known terrain, not
 /// below the imaging region), `None` where it is not known; `imaged(p)` whether the imaging
 /// region covers `p` in xy — a front that reaches beyond it is not known to be open (module
-/// docs). Deterministic: columns in lattice
-/// order, samples top down.
+/// docs). Deterministic: columns in lattice order, samples top down.
 pub fn wall_columns(
     points: &[Vec3],
     normals: &[Vec3],
