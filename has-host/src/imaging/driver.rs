@@ -12,7 +12,13 @@
 //!    pass detects has the same processing gain here); voxels detected at
 //!    `mask_false_alarm_probability` against the bare-terrain prediction ([`super::detection`]),
 //!    dilated by one coarse voxel, form the mask (with `detection = "peak"`: voxels within
-//!    `coarse_threshold_db` of the coarse peak). The coarse grid costs (fine / coarse voxel)³ less
+//!    `coarse_threshold_db` of the coarse peak). With the clutter test the mask is the union of
+//!    two coarse images of the same snapshots, the full band and the profiles low-passed along
+//!    range to the lattice's resolution ([`super::coarse_range`]), each at half the mask's
+//!    false-alarm probability: a point sample of the full-band image misses a surface that falls
+//!    between the samples (on a 1.5 m lattice at 400 MHz a wall half a spacing from the nearest
+//!    centre can keep −15 dB of its power, and the mask lost surfaces the fine pass would have
+//!    detected). The coarse grid costs (fine / coarse voxel)³ less
 //!    per frame than the fine one. It is turned to the region's footprint ([`CoarseFrame`]: a
 //!    `region_polygon` askew to the world axes is covered by a grid of its own size, not by its
 //!    axis-aligned box), and of it only the columns the detection reads are imaged (a
@@ -58,6 +64,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 
 use super::centroid::skirt_to_centroid;
+use super::coarse_range::{coarse_range_kernel, filter_rows};
 use super::detection::{
     alias_is_stronger, alias_window_m, coherence_factor, detected, direct_path_guard_m,
     effective_looks, image_false_alarm_probability, layer_looks_per_voxel, layer_window,
@@ -562,9 +569,11 @@ pub fn survey_pair(sc: &Scenario, world: &World, plan: &PairPlan) -> Result<usiz
     let rx: Vec<Vec3> = rx_idx.iter().map(|&e| rx_fine[e]).collect();
     let tx: Vec<Vec3> = tx_idx.iter().map(|&f| tx_fine[f]).collect();
     let mut stats = PairStats::default();
+    let range_kernel = coarse_kernel(sc, &geo, &src.synth);
     let coarse = coarse_pass(
         sc,
         &geo,
+        &range_kernel,
         clutter_ref,
         &tx,
         &rx,
@@ -690,9 +699,11 @@ pub fn image_pair(
     // ---- Coarse pass: the mask.
     let rx_c: Vec<Vec3> = rx_c_idx.iter().map(|&e| rx_fine[e]).collect();
     let tx_c: Vec<Vec3> = tx_c_idx.iter().map(|&f| tx_fine[f]).collect();
+    let range_kernel = coarse_kernel(sc, &geo, &src.synth);
     let coarse = coarse_pass(
         sc,
         &geo,
+        &range_kernel,
         clutter_ref,
         &tx_c,
         &rx_c,
@@ -1057,6 +1068,13 @@ pub fn image_pair(
     })
 }
 
+/// The coarse pass's range filter for the pair's pulse and the coarse lattice
+/// ([`super::coarse_range`]).
+fn coarse_kernel(sc: &Scenario, geo: &PairGeometry, synth: &EchoSynth) -> Vec<f32> {
+    let k = synth.kernel();
+    coarse_range_kernel(|x| k.eval(x), geo.dr_m, sc.imaging.coarse_voxel_m as f64)
+}
+
 /// Fills snapshot `k`'s profiles of the data and of the terrain model (see [`coarse_pass`]).
 type SnapshotFill<'a> =
     dyn FnMut(usize, &mut [Complex32], &mut [Complex32]) -> Result<(), ImagingError> + 'a;
@@ -1237,6 +1255,7 @@ fn cfar_window(geo: &PairGeometry, voxel_m: f32, pfa: f64) -> ([usize; 3], CfarF
 fn coarse_pass(
     sc: &Scenario,
     geo: &PairGeometry,
+    range_kernel: &[f32],
     clutter_ref: bool,
     tx: &[Vec3],
     rx: &[Vec3],
@@ -1256,78 +1275,128 @@ fn coarse_pass(
     };
     let cbp = Backprojector::new(bp_config(sc, geo, cgrid, false))?;
     let cbp_inc = Backprojector::new(bp_config(sc, geo, cgrid, true))?;
-    let mut cimg = vec![Complex32::new(0.0, 0.0); cbp.voxels()];
-    let mut cimg_m = vec![Complex32::new(0.0, 0.0); if clutter_ref { cbp.voxels() } else { 0 }];
-    let mut cimg_i = vec![Complex32::new(0.0, 0.0); if clutter_ref { cbp.voxels() } else { 0 }];
+    // Two images of the same snapshots: the full band, and (with the clutter test, when the
+    // lattice is coarser than the pulse) the profiles low-passed to the lattice
+    // (`super::coarse_range`). The mask is their union, each tested at half the stated
+    // false-alarm probability (a union bound): the full band keeps its gain where a surface falls
+    // near a lattice centre, the low-passed image holds a surface anywhere between them.
+    let filtered = clutter_ref && range_kernel.len() > 1;
+    let bands = if filtered { 2 } else { 1 };
+    let voxels = cbp.voxels();
+    let mut cimg = vec![Complex32::new(0.0, 0.0); bands * voxels];
+    let mut cimg_m = vec![Complex32::new(0.0, 0.0); if clutter_ref { bands * voxels } else { 0 }];
+    let mut cimg_i = vec![Complex32::new(0.0, 0.0); if clutter_ref { bands * voxels } else { 0 }];
     let rx_local: Vec<Vec3> = rx.iter().map(|&p| cframe.local(p)).collect();
     let mut prof = vec![Complex32::new(0.0, 0.0); rx.len() * nb];
     let mut mprof = vec![Complex32::new(0.0, 0.0); if clutter_ref { prof.len() } else { 0 }];
     let mut iprof = mprof.clone();
-    let window = clutter_ref.then(|| cfar_window(geo, cv, im.mask_false_alarm_probability));
+    let (mut fprof, mut fmprof) = if filtered {
+        (prof.clone(), mprof.clone())
+    } else {
+        (Vec::new(), Vec::new())
+    };
+    let mask_pfa = im.mask_false_alarm_probability / bands as f64;
+    let window = clutter_ref.then(|| cfar_window(geo, cv, mask_pfa));
+    let mut scratch = Vec::new();
     // Only the coarse voxels the detection below can read: those whose neighbourhood touches
     // the region, and with the clutter test their CFAR windows. The grid is the region's
     // bounding box; a polygon region askew to the axes covers as little as half of it.
     let reach = window.as_ref().map_or([0, 0], |(r, _)| [r[0], r[1]]);
-    let tile = cimg.len().div_ceil(rayon::current_num_threads() * 4).max(1);
+    let tile = voxels.div_ceil(rayon::current_num_threads() * 4).max(1);
     let runs = coarse_runs(sc, &cframe, reach, tile);
     {
-        let mut accs = coarse_tiles(&cbp, &mut cimg, &runs, tile)?;
-        let mut accs_m = coarse_tiles(&cbp, &mut cimg_m, &runs, tile)?;
-        let mut accs_i = coarse_tiles(&cbp_inc, &mut cimg_i, &runs, tile)?;
+        let (img_full, img_low) = cimg.split_at_mut(voxels);
+        let (nm, ni) = (cimg_m.len().min(voxels), cimg_i.len().min(voxels));
+        let (m_full, m_low) = cimg_m.split_at_mut(nm);
+        let (i_full, i_low) = cimg_i.split_at_mut(ni);
+        let mut accs = [
+            coarse_tiles(&cbp, img_full, &runs, tile)?,
+            coarse_tiles(&cbp, img_low, &runs, tile)?,
+        ];
+        let mut accs_m = [
+            coarse_tiles(&cbp, m_full, &runs, tile)?,
+            coarse_tiles(&cbp, m_low, &runs, tile)?,
+        ];
+        let mut accs_i = [
+            coarse_tiles(&cbp_inc, i_full, &runs, tile)?,
+            coarse_tiles(&cbp_inc, i_low, &runs, tile)?,
+        ];
         for (k, &t_pos) in tx.iter().enumerate() {
             frame(k, &mut prof, &mut mprof)?;
-            if clutter_ref {
-                excess_power_of(&prof, &mprof, &mut iprof);
+            if filtered {
+                fprof.copy_from_slice(&prof);
+                fmprof.copy_from_slice(&mprof);
+                filter_rows(&mut fprof, nb, range_kernel, &mut scratch);
+                filter_rows(&mut fmprof, nb, range_kernel, &mut scratch);
             }
             let t = Instant::now();
-            let snap = Snapshot {
-                tx: cframe.local(t_pos),
-                rx: &rx_local,
-                profiles: &iprof,
-                profile_len: nb,
-            };
-            let push =
-                |bp: &Backprojector, accs: &mut [Vec<AccF32<'_>>], snap: &Snapshot<'_, _>| {
-                    accs.par_iter_mut().try_for_each(|group| {
-                        group
-                            .iter_mut()
-                            .try_for_each(|acc| bp.push_snapshot(acc, snap))
-                    })
+            for band in 0..bands {
+                let (p, m) = if band == 0 {
+                    (&prof, &mprof)
+                } else {
+                    (&fprof, &fmprof)
                 };
-            push(&cbp_inc, &mut accs_i, &snap)?;
-            push(
-                &cbp,
-                &mut accs_m,
-                &Snapshot {
-                    profiles: &mprof,
-                    ..snap
-                },
-            )?;
-            push(
-                &cbp,
-                &mut accs,
-                &Snapshot {
-                    profiles: &prof,
-                    ..snap
-                },
-            )?;
+                if clutter_ref {
+                    excess_power_of(p, m, &mut iprof);
+                }
+                let snap = Snapshot {
+                    tx: cframe.local(t_pos),
+                    rx: &rx_local,
+                    profiles: &iprof,
+                    profile_len: nb,
+                };
+                let push =
+                    |bp: &Backprojector, accs: &mut [Vec<AccF32<'_>>], snap: &Snapshot<'_, _>| {
+                        accs.par_iter_mut().try_for_each(|group| {
+                            group
+                                .iter_mut()
+                                .try_for_each(|acc| bp.push_snapshot(acc, snap))
+                        })
+                    };
+                push(&cbp_inc, &mut accs_i[band], &snap)?;
+                push(
+                    &cbp,
+                    &mut accs_m[band],
+                    &Snapshot {
+                        profiles: m,
+                        ..snap
+                    },
+                )?;
+                push(
+                    &cbp,
+                    &mut accs[band],
+                    &Snapshot {
+                        profiles: p,
+                        ..snap
+                    },
+                )?;
+            }
             stats.bp_s += t.elapsed().as_secs_f64();
             tick();
         }
     }
     let imaged: usize = runs.iter().map(|r| r.1).sum();
     stats.coarse_voxels = imaged;
-    let passes = if clutter_ref { 3 } else { 1 };
+    let passes = if clutter_ref { 3 * bands } else { 1 };
     stats.backprojections += (passes * imaged * rx.len() * tx.len()) as f64;
     let coarse_in_region = |i: usize| cframe.touches_region(sc, i, Vec3::splat(cv));
     let detected: Vec<bool> = if let Some((radius, alpha)) = window {
-        let pm: Vec<f32> = cimg_m.iter().map(|z| z.norm_sqr()).collect();
-        let c = local_mean(&pm, cdims, radius);
-        (0..cimg.len())
+        let means: Vec<_> = (0..bands)
+            .map(|b| {
+                let pm: Vec<f32> = cimg_m[b * voxels..(b + 1) * voxels]
+                    .iter()
+                    .map(|z| z.norm_sqr())
+                    .collect();
+                local_mean(&pm, cdims, radius)
+            })
+            .collect();
+        (0..voxels)
             .map(|i| {
-                let a = alpha.alpha(c.count[i]);
-                detected(cimg[i].norm_sqr(), c.mean[i], cimg_i[i].re, None, a, 0.0)
-                    && coarse_in_region(i)
+                (0..bands).any(|b| {
+                    let (c, j) = (&means[b], b * voxels + i);
+                    let a = alpha.alpha(c.count[i]);
+                    detected(cimg[j].norm_sqr(), c.mean[i], cimg_i[j].re, None, a, 0.0)
+                }) && coarse_in_region(i)
             })
             .collect()
     } else {

@@ -3,6 +3,7 @@
 //! ([`crate::scenario`]) and images with the sensors of [`crate::sensors`] (re-exported here).
 
 pub mod centroid;
+pub mod coarse_range;
 pub mod confirmation;
 pub mod detection;
 pub mod driver;
