@@ -81,6 +81,12 @@ fn malformed_scenario_fails_with_one_line_naming_the_field() {
             "scatterer_density_per_m2 = 1e12",
             "imaging.scatterer_density_per_m2: up to",
         ),
+        // Range profiles shorter than the site's paths: echoes would fold onto nearer paths.
+        (
+            "subcarriers = 1024",
+            "subcarriers = 64",
+            "radar.subcarriers: 64 (the unambiguous path",
+        ),
     ] {
         assert!(factory.contains(from), "{from}");
         let (ok, err) = common::run_on_text("reconstruct", &dir, &factory.replacen(from, to, 1));

@@ -231,6 +231,7 @@ pub fn build_world(sc: &Scenario) -> Result<World, RunError> {
         });
     }
     sc.check_extent()?;
+    sc.check_unambiguous()?;
     for (field, p) in sc.sensor_positions() {
         if let Some(o) = scene.enclosing_object(Vec3::from(p)) {
             return Err(RunError::Enclosed {

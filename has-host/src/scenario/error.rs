@@ -51,6 +51,26 @@ pub enum ScenarioError {
         /// The wavelength, metres.
         wavelength_m: f64,
     },
+    /// Range profiles too short for the region: an OFDM profile's bins wrap after `n·c/B` of
+    /// path, so an echo from farther would fold onto a nearer path.
+    #[error(
+        "radar.subcarriers: {subcarriers} (the unambiguous path n·c/B, {unambiguous_m:.1} m, is \
+         shorter than the longest bistatic path through the imaging region, {longest_m:.1} m, \
+         {via}: at least {needed} subcarriers at this bandwidth)"
+    )]
+    Ambiguous {
+        /// `radar.subcarriers`.
+        subcarriers: usize,
+        /// `n·c/B`, metres of path.
+        unambiguous_m: f64,
+        /// The longest bistatic path from a base station via a corner of the region's box to a
+        /// terminal position, metres.
+        longest_m: f64,
+        /// Which base station and terminal.
+        via: String,
+        /// The smallest power of two of subcarriers that holds it.
+        needed: usize,
+    },
 }
 
 /// The validators of one table of the scenario file: each error names `<table>.<field>` (the

@@ -588,6 +588,58 @@ impl Scenario {
         Ok(())
     }
 
+    /// The range profiles hold every path the region can echo on: an OFDM profile's bins wrap
+    /// after `n·c/B` of path, and an echo from farther folds onto a nearer path. Asked after
+    /// [`Self::check_extent`] (a site far from the origin is refused there, by its position).
+    ///
+    /// # Errors
+    /// [`ScenarioError::Ambiguous`] with the longest path, its sensors and the subcarriers it
+    /// needs.
+    pub fn check_unambiguous(&self) -> Result<(), ScenarioError> {
+        let (r, im) = (&self.radar, &self.imaging);
+        // The longest bistatic path through the region: at its box's corners (the path is
+        // convex in the point), from any base station via any terminal position.
+        let unambiguous =
+            r.subcarriers as f64 * has_dsp::geometry::C_M_PER_S / (r.bandwidth_mhz * 1e6);
+        let (lo, hi) = (Vec3::from(im.region_min), Vec3::from(im.region_max));
+        let mut longest = (0.0f64, String::new());
+        for b in &self.base_stations {
+            for a in &self.apertures {
+                for t in [a.start, a.end] {
+                    for i in 0..8 {
+                        let c = Vec3::new(
+                            if i & 1 == 0 { lo.x } else { hi.x },
+                            if i & 2 == 0 { lo.y } else { hi.y },
+                            if i & 4 == 0 { lo.z } else { hi.z },
+                        );
+                        let path = has_dsp::geometry::bistatic_range(
+                            c,
+                            Vec3::from(t),
+                            Vec3::from(b.position),
+                        ) as f64;
+                        if path > longest.0 {
+                            longest = (
+                                path,
+                                format!("from {} via the region to {}", b.name, a.name),
+                            );
+                        }
+                    }
+                }
+            }
+        }
+        if longest.0 > unambiguous {
+            let needed = (longest.0 * r.bandwidth_mhz * 1e6 / has_dsp::geometry::C_M_PER_S).ceil();
+            return Err(ScenarioError::Ambiguous {
+                subcarriers: r.subcarriers,
+                unambiguous_m: unambiguous,
+                longest_m: longest.0,
+                via: longest.1,
+                needed: (needed as usize).next_power_of_two(),
+            });
+        }
+        Ok(())
+    }
+
     /// Checks every value (names the first bad field).
     ///
     /// # Errors
@@ -1034,6 +1086,30 @@ mod tests {
         sc.imaging.region_max[0] += 9.0e3;
         let e = sc.check_extent().unwrap_err().to_string();
         assert!(e.starts_with("imaging.region_max:"), "{e}");
+    }
+
+    #[test]
+    fn profiles_shorter_than_the_regions_longest_path_are_refused_with_the_subcarriers_needed() {
+        let mut sc = factory();
+        sc.radar.subcarriers = 64;
+        sc.validate().unwrap();
+        let e = sc.check_unambiguous().unwrap_err();
+        let ScenarioError::Ambiguous {
+            needed, longest_m, ..
+        } = e
+        else {
+            panic!("{e}")
+        };
+        assert!(e.to_string().starts_with("radar.subcarriers: 64 "), "{e}");
+        // n·c/B holds the longest path at the count it names, not at half of it.
+        let path =
+            |n: usize| n as f64 * has_dsp::geometry::C_M_PER_S / (sc.radar.bandwidth_mhz * 1e6);
+        assert!(
+            path(needed) >= longest_m && path(needed / 2) < longest_m,
+            "{e}"
+        );
+        sc.radar.subcarriers = needed;
+        sc.check_unambiguous().unwrap();
     }
 
     #[test]
