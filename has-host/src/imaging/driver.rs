@@ -219,14 +219,7 @@ fn pair_geometry(sc: &Scenario, plan: &PairPlan) -> PairGeometry {
     for tx in [aperture.start, aperture.end] {
         let r = (clamp(tx).distance(tx) + clamp(array.centre).distance(array.centre)) as f64;
         rmin = rmin.min(r - 0.5 * aperture.length_m() as f64 - half_array as f64);
-        for i in 0..8 {
-            let c = Vec3::new(
-                if i & 1 == 0 { lo.x } else { hi.x },
-                if i & 2 == 0 { lo.y } else { hi.y },
-                if i & 4 == 0 { lo.z } else { hi.z },
-            );
-            rmax = rmax.max(has_dsp::geometry::bistatic_range(c, tx, array.centre) as f64);
-        }
+        rmax = rmax.max(sc.longest_path_m(tx, array.centre));
     }
     rmax += half_array as f64;
     let margin = 4.0 * dr;

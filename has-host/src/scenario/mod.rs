@@ -588,6 +588,22 @@ impl Scenario {
         Ok(())
     }
 
+    /// The longest bistatic path `|p − tx| + |p − rx|` over the region's box, metres: at one of
+    /// its corners (the path is convex in `p`).
+    pub fn longest_path_m(&self, tx: Vec3, rx: Vec3) -> f64 {
+        let (lo, hi) = self.region();
+        (0..8)
+            .map(|i| {
+                let c = Vec3::new(
+                    if i & 1 == 0 { lo.x } else { hi.x },
+                    if i & 2 == 0 { lo.y } else { hi.y },
+                    if i & 4 == 0 { lo.z } else { hi.z },
+                );
+                has_dsp::geometry::bistatic_range(c, tx, rx) as f64
+            })
+            .fold(0.0, f64::max)
+    }
+
     /// The range profiles hold every path the region can echo on: an OFDM profile's bins wrap
     /// after `n·c/B` of path, and an echo from farther folds onto a nearer path. Asked after
     /// [`Self::check_extent`] (a site far from the origin is refused there, by its position).
@@ -596,33 +612,21 @@ impl Scenario {
     /// [`ScenarioError::Ambiguous`] with the longest path, its sensors and the subcarriers it
     /// needs.
     pub fn check_unambiguous(&self) -> Result<(), ScenarioError> {
-        let (r, im) = (&self.radar, &self.imaging);
+        let r = &self.radar;
         // The longest bistatic path through the region: at its box's corners (the path is
         // convex in the point), from any base station via any terminal position.
         let unambiguous =
             r.subcarriers as f64 * has_dsp::geometry::C_M_PER_S / (r.bandwidth_mhz * 1e6);
-        let (lo, hi) = (Vec3::from(im.region_min), Vec3::from(im.region_max));
         let mut longest = (0.0f64, String::new());
         for b in &self.base_stations {
             for a in &self.apertures {
                 for t in [a.start, a.end] {
-                    for i in 0..8 {
-                        let c = Vec3::new(
-                            if i & 1 == 0 { lo.x } else { hi.x },
-                            if i & 2 == 0 { lo.y } else { hi.y },
-                            if i & 4 == 0 { lo.z } else { hi.z },
+                    let path = self.longest_path_m(Vec3::from(t), Vec3::from(b.position));
+                    if path > longest.0 {
+                        longest = (
+                            path,
+                            format!("from {} via the region to {}", b.name, a.name),
                         );
-                        let path = has_dsp::geometry::bistatic_range(
-                            c,
-                            Vec3::from(t),
-                            Vec3::from(b.position),
-                        ) as f64;
-                        if path > longest.0 {
-                            longest = (
-                                path,
-                                format!("from {} via the region to {}", b.name, a.name),
-                            );
-                        }
                     }
                 }
             }
