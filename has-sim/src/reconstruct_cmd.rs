@@ -71,6 +71,10 @@ pub struct ReconstructArgs {
     /// (`has_host::imaging::wall_columns::roof_edge_walls`).
     #[arg(long)]
     pub no_roof_edge_walls: bool,
+    /// Do not roof the buildings whose imaged walls outline a rectangle or a circle and whose
+    /// roof no pair saw (`has_host::imaging::hidden_roofs`).
+    #[arg(long)]
+    pub no_hidden_roofs: bool,
     /// Skip surface reconstruction.
     #[arg(long)]
     pub no_mesh: bool,
@@ -103,6 +107,7 @@ impl ReconstructArgs {
             visibility_filter: false,
             no_wall_columns: false,
             no_roof_edge_walls: false,
+            no_hidden_roofs: false,
             no_mesh: false,
             seed: None,
         }
@@ -368,6 +373,7 @@ pub fn run(args: ReconstructArgs) -> Result<ReconstructRunReport> {
             visibility_filter: args.visibility_filter,
             wall_columns: !args.no_wall_columns,
             roof_edge_walls: !args.no_roof_edge_walls,
+            hidden_roofs: !args.no_hidden_roofs,
         }),
     };
     match &args.from_pairs {

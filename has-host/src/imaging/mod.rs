@@ -8,6 +8,7 @@ pub mod confirmation;
 pub mod detection;
 pub mod driver;
 pub mod finer_height;
+pub mod hidden_roofs;
 pub mod run;
 pub mod surface;
 pub mod terrain_echo;

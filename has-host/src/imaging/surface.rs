@@ -62,11 +62,14 @@
 //! - below the lowest sample of each wall, samples down to what the wall stands on — a lower
 //!   roof of the cloud or the known terrain ([`super::wall_columns`], on by default,
 //!   [`SurfaceOptions::wall_columns`]): what no pair saw of a wall whose upper part they did;
-//! - under each outer edge of an imaged roof (the imaging region's border is none: nothing was
-//!   imaged beyond it), a wall down to the terrain
+//! - over a building whose imaged walls outline a rectangle or a circle and whose roof no pair
+//!   saw, a roof at the walls' top ([`super::hidden_roofs`], on by default,
+//!   [`SurfaceOptions::hidden_roofs`]): a terminal on the ground and a base station on a mast
+//!   see no roof above the terminal, so without a UAV the roofs are not imaged at all;
+//! - under each outer edge of an imaged or added roof (the imaging region's border is none:
+//!   nothing was imaged beyond it), a wall down to the terrain
 //!   ([`super::wall_columns::roof_edge_walls`], on by default,
-//!   [`SurfaceOptions::roof_edge_walls`]): the walls no pair saw at all under roofs that pairs
-//!   did see;
+//!   [`SurfaceOptions::roof_edge_walls`]): the walls no pair saw at all;
 //! - optionally ([`SurfaceOptions::visibility_filter`]) points that a one level coarser first
 //!   surface hides from every pair that observed them are left out
 //!   ([`crate::mesh::visibility_consistent`], margin [`VISIBILITY_MARGIN_VOXELS`]).
@@ -77,6 +80,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 
+use super::hidden_roofs::{hidden_roofs, Footprint};
 use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult};
 use super::wall_columns::{roof_edge_walls, wall_columns};
 use super::world::Terrain;
@@ -130,6 +134,9 @@ pub struct SurfaceOptions {
     /// Stand a wall under each outer edge of an imaged roof (module docs,
     /// [`super::wall_columns::roof_edge_walls`]).
     pub roof_edge_walls: bool,
+    /// Roof the buildings whose imaged walls outline a rectangle or a circle and whose roof no
+    /// pair saw (module docs, [`super::hidden_roofs`]).
+    pub hidden_roofs: bool,
 }
 
 impl Default for SurfaceOptions {
@@ -141,6 +148,7 @@ impl Default for SurfaceOptions {
             visibility_filter: false,
             wall_columns: true,
             roof_edge_walls: true,
+            hidden_roofs: true,
         }
     }
 }
@@ -185,6 +193,11 @@ pub struct Surface {
     /// Samples added below the roofs' outer edges ([`super::wall_columns::roof_edge_walls`]),
     /// included in `points` after the wall columns'.
     pub roof_edge_samples: usize,
+    /// Samples of the roofs added over imaged walls ([`super::hidden_roofs`]), included in
+    /// `points`.
+    pub hidden_roof_samples: usize,
+    /// Each building's footprint as [`super::hidden_roofs`] read it from its walls.
+    pub footprints: Vec<Footprint>,
     /// Seconds for the whole stage.
     pub seconds: f64,
 }
@@ -304,15 +317,33 @@ pub fn surface(
         .filter(|(_, &f)| f)
         .map(|(w, _)| *w)
         .collect();
-    let (mut wall_column_samples, mut roof_edge_samples) = (0, 0);
+    let (mut wall_column_samples, mut roof_edge_samples, mut hidden_roof_samples) = (0, 0, 0);
+    let mut footprints = Vec::new();
     if let Some(terrain) = terrain {
         let floor = |p: Vec3| terrain.below(p).map(|g| g.z.max(clip_box.0.z));
         // The imaging region's footprint: beyond it nothing was imaged (module docs).
         let imaged = |p: Vec3| sc.in_region(p.with_z(clip_box.0.z));
+        // The footprints are read from what the pairs detected, not from inferred walls.
+        let detected = points.len();
         if opts.wall_columns {
             let w = wall_columns(&points, &normals, &weights, voxel, support, floor, imaged);
             fit.extend(w.normals.iter().copied());
             wall_column_samples = w.append_to(&mut points, &mut normals, &mut weights);
+        }
+        if opts.hidden_roofs {
+            let n = detected;
+            let (w, f) = hidden_roofs(
+                &points[..n],
+                &normals[..n],
+                &weights[..n],
+                voxel,
+                support,
+                floor,
+                imaged,
+            );
+            footprints = f;
+            fit.extend(w.normals.iter().copied());
+            hidden_roof_samples = w.append_to(&mut points, &mut normals, &mut weights);
         }
         if opts.roof_edge_walls {
             let w = roof_edge_walls(&points, &normals, &weights, voxel, support, floor, imaged);
@@ -330,6 +361,8 @@ pub fn surface(
         facing_away,
         wall_column_samples,
         roof_edge_samples,
+        hidden_roof_samples,
+        footprints,
         depth,
         cell_m: rec.poisson.cell_m,
         clip_box,

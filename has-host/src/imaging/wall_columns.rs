@@ -133,6 +133,54 @@ fn image_bottom(heights: &[f32], from: f32, cell_m: f32) -> f32 {
     bottom
 }
 
+/// The lattice cell of side `cell_m` holding `p`.
+fn cell_of(p: Vec3, cell_m: f32) -> (i64, i64, i64) {
+    (
+        (p.x / cell_m).floor() as i64,
+        (p.y / cell_m).floor() as i64,
+        (p.z / cell_m).floor() as i64,
+    )
+}
+
+/// The cloud's occupancy on the lattice, asked whether a wall sample's front is open (module
+/// docs): nothing of the cloud at the sample's own height (± a cell) from one cell to `front_m`
+/// ahead of it along its normal — the outer face of the wall's image, whose resolution cell is
+/// about `front_m` thick and rough — and nothing within `front_m` of its height from there to
+/// two `front_m` ahead; and the imaging region reaching that far.
+pub(super) struct Fronts {
+    occupied: HashSet<(i64, i64, i64)>,
+    cell_m: f32,
+    steps: i64,
+}
+
+impl Fronts {
+    /// The occupancy of `points` on a lattice of `cell_m`, for fronts `front_m` deep.
+    pub(super) fn new(points: &[Vec3], cell_m: f32, front_m: f32) -> Self {
+        Fronts {
+            occupied: points
+                .iter()
+                .filter(|p| p.is_finite())
+                .map(|&p| cell_of(p, cell_m))
+                .collect(),
+            cell_m,
+            steps: (front_m / cell_m).ceil() as i64,
+        }
+    }
+
+    /// Whether the sample at `p` with normal `n` has an open front; `imaged(q)` whether the
+    /// imaging region covers `q` in xy.
+    pub(super) fn open(&self, p: Vec3, n: Vec3, imaged: impl Fn(Vec3) -> bool) -> bool {
+        let (cell, steps) = (self.cell_m, self.steps);
+        let ahead = Vec3::new(n.x, n.y, 0.0).normalize_or_zero();
+        imaged(p + ahead * (2 * steps) as f32 * cell)
+            && (1..=2 * steps).all(|j| {
+                let q = cell_of(p + ahead * (j as f32 * cell), cell);
+                let dz = if j <= steps { 1 } else { steps };
+                (-dz..=dz).all(|dz| !self.occupied.contains(&(q.0, q.1, q.2 + dz)))
+            })
+    }
+}
+
 /// Whether a lattice cell and a front depth make sense (positive, finite; the front may be 0).
 fn usable(cell_m: f32, front_m: f32) -> bool {
     cell_m > 0.0 && cell_m.is_finite() && front_m >= 0.0 && front_m.is_finite()
@@ -160,32 +208,9 @@ pub fn wall_columns(
         return out;
     }
     let max_nz = WALL_MAX_TILT_DEG.to_radians().sin();
-    let lattice = |p: Vec3| {
-        (
-            (p.x / cell_m).floor() as i64,
-            (p.y / cell_m).floor() as i64,
-            (p.z / cell_m).floor() as i64,
-        )
-    };
-    let occupied: HashSet<(i64, i64, i64)> = points
-        .iter()
-        .filter(|p| p.is_finite())
-        .map(|&p| lattice(p))
-        .collect();
-    // Nothing of the cloud at the sample's own height (± a cell) from one cell to `front_m`
-    // ahead of it — the outer face of the wall's image, whose resolution cell is about
-    // `front_m` thick and rough — and nothing within `front_m` of its height from there to two
-    // `front_m` ahead.
-    let steps = (front_m / cell_m).ceil() as i64;
-    let open_front = |p: Vec3, n: Vec3| {
-        let ahead = Vec3::new(n.x, n.y, 0.0).normalize_or_zero();
-        imaged(p + ahead * (2 * steps) as f32 * cell_m)
-            && (1..=2 * steps).all(|j| {
-                let q = lattice(p + ahead * (j as f32 * cell_m));
-                let dz = if j <= steps { 1 } else { steps };
-                (-dz..=dz).all(|dz| !occupied.contains(&(q.0, q.1, q.2 + dz)))
-            })
-    };
+    let lattice = |p: Vec3| cell_of(p, cell_m);
+    let fronts = Fronts::new(points, cell_m, front_m);
+    let open_front = |p: Vec3, n: Vec3| fronts.open(p, n, &imaged);
     // Per lattice column: the lowest wall sample (index) and every sample's height.
     #[derive(Default)]
     struct Column {

@@ -304,6 +304,12 @@ pub struct MeshReport {
     /// ([`imaging::wall_columns::roof_edge_walls`]; 0 with the option off or the terrain
     /// unknown), after the wall columns' in the mesher's input.
     pub roof_edge_samples: usize,
+    /// Samples of the roofs added over imaged walls where no pair saw a roof
+    /// ([`imaging::hidden_roofs`]; 0 with the option off or the terrain unknown), before the
+    /// roof-edge walls' in the mesher's input.
+    pub hidden_roof_samples: usize,
+    /// Each building's footprint as read from its imaged walls ([`imaging::hidden_roofs`]).
+    pub footprints: Vec<imaging::hidden_roofs::Footprint>,
     /// Density trim fraction, if any (none by default).
     pub trim_median_fraction: Option<f32>,
     /// What weighs the samples.
@@ -677,6 +683,8 @@ fn mesh_stage(
         facing_away_points: surf.facing_away,
         wall_column_samples: surf.wall_column_samples,
         roof_edge_samples: surf.roof_edge_samples,
+        hidden_roof_samples: surf.hidden_roof_samples,
+        footprints: surf.footprints.clone(),
         trim_median_fraction: opts.trim_median,
         sample_weights: "weight",
         sample_density_per_m2: density,

@@ -111,6 +111,16 @@ impl ReconstructRunReport {
                 m.seconds,
                 m.sample_density_per_m2
             )?;
+            let roofed = m.footprints.iter().filter(|f| f.samples > 0).count();
+            writeln!(
+                s,
+                "Inferred in the mesher's input: {} samples continuing walls down to what they stand on, {} of roofs over {} of {} buildings whose imaged walls outline a footprint and whose roof no pair saw, {} of walls under the outer edges of roofs.",
+                m.wall_column_samples,
+                m.hidden_roof_samples,
+                roofed,
+                m.footprints.len(),
+                m.roof_edge_samples
+            )?;
             if let Some(v) = &m.visibility_filter {
                 writeln!(
                     s,
