@@ -105,10 +105,11 @@ pub struct Footprint {
 }
 
 /// The samples of the hidden roofs over the imaged walls (module docs), and each building's
-/// footprint (the groups with walls). `points`, `normals` (unit, oriented) and `weights` are the mesher's input;
-/// `cell_m` the lattice the roof is sampled on; `front_m` the support distance (half the
-/// coarsest resolution cell); `floor(p)` the known terrain under `p` (`None` where unknown);
-/// `imaged(p)` whether the imaging region covers `p` in xy (a roof is added only there).
+/// footprint (the groups with walls). `points`, `normals` (unit, oriented) and `weights` are
+/// the detected samples of the mesher's input; `cell_m` the lattice the roof is sampled on;
+/// `front_m` the support distance (half the coarsest resolution cell); `floor(p)` the known
+/// terrain under `p` (`None` where unknown); `imaged(p)` whether the imaging region covers `p`
+/// in xy (a roof is added only there).
 /// Deterministic: buildings in lattice order, samples in lattice order.
 pub fn hidden_roofs(
     points: &[Vec3],
