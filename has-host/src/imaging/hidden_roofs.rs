@@ -91,6 +91,35 @@ pub enum Outline {
     Unknown(&'static str),
 }
 
+impl Outline {
+    /// The outline's bounding box (xy), `None` for no outline.
+    fn bounds(&self) -> Option<(Vec2, Vec2)> {
+        match *self {
+            Outline::Rectangle(c) => Some(c.iter().fold(
+                (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY)),
+                |(lo, hi), q| (lo.min(*q), hi.max(*q)),
+            )),
+            Outline::Round { centre, radius_m } => Some((centre - radius_m, centre + radius_m)),
+            Outline::Unknown(_) => None,
+        }
+    }
+
+    /// Whether `q` (xy) lies inside the outline (on a rectangle's edge within a millimetre).
+    fn contains(&self, q: Vec2) -> bool {
+        match *self {
+            Outline::Rectangle(c) => {
+                let (eu, ev) = (c[1] - c[0], c[3] - c[0]);
+                let d = q - c[0];
+                let (lu, lv) = (eu.length(), ev.length());
+                (-1e-3..=lu + 1e-3).contains(&d.dot(eu.normalize()))
+                    && (-1e-3..=lv + 1e-3).contains(&d.dot(ev.normalize()))
+            }
+            Outline::Round { centre, radius_m } => q.distance(centre) <= radius_m,
+            Outline::Unknown(_) => false,
+        }
+    }
+}
+
 /// One building's footprint and roof ([`hidden_roofs`]).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct Footprint {
@@ -289,20 +318,8 @@ impl Building<'_> {
         let (outline, height, weight) = self.outline();
         fp.outline = outline;
         fp.height_m = height;
-        let inside: Box<dyn Fn(Vec2) -> bool> = match fp.outline {
-            Outline::Rectangle(c) => {
-                let (u, v) = ((c[1] - c[0]).normalize(), (c[3] - c[0]).normalize());
-                let (lu, lv) = ((c[1] - c[0]).length(), (c[3] - c[0]).length());
-                Box::new(move |q: Vec2| {
-                    let d = q - c[0];
-                    (-1e-3..=lu + 1e-3).contains(&d.dot(u))
-                        && (-1e-3..=lv + 1e-3).contains(&d.dot(v))
-                })
-            }
-            Outline::Round { centre, radius_m } => {
-                Box::new(move |q: Vec2| q.distance(centre) <= radius_m)
-            }
-            Outline::Unknown(_) => return (fp, Vec::new()),
+        let Some((lo, hi)) = fp.outline.bounds() else {
+            return (fp, Vec::new());
         };
         // Where the cloud holds something at the roof's height (within a resolution cell under
         // it) within the support distance, the roof was imaged: nothing is added there.
@@ -323,19 +340,11 @@ impl Building<'_> {
             })
         };
         // The roof's lattice: the world's, cell centres inside the outline.
-        let (lo, hi) = match fp.outline {
-            Outline::Rectangle(c) => c.iter().fold(
-                (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY)),
-                |(lo, hi), q| (lo.min(*q), hi.max(*q)),
-            ),
-            Outline::Round { centre, radius_m } => (centre - radius_m, centre + radius_m),
-            Outline::Unknown(_) => unreachable!("returned above"),
-        };
         let ((a0, b0), (a1, b1)) = (column(lo, self.cell_m), column(hi, self.cell_m));
         let samples: Vec<(Vec3, f32)> = (b0..=b1)
             .flat_map(|b| (a0..=a1).map(move |a| Vec2::new(a as f32, b as f32)))
             .map(|k| (k + 0.5) * self.cell_m)
-            .filter(|&q| inside(q) && !covered(q))
+            .filter(|&q| fp.outline.contains(q) && !covered(q))
             .map(|q| q.extend(height))
             .filter(|&p| imaged(p))
             .map(|p| (p, weight))
