@@ -75,6 +75,10 @@ pub struct ReconstructArgs {
     /// roof no pair saw (`has_host::imaging::hidden_roofs`).
     #[arg(long)]
     pub no_hidden_roofs: bool,
+    /// Stand the inferred walls inside a building's footprint on the terrain, not on its roof
+    /// (`has_host::imaging::hidden_roofs::standing_on`).
+    #[arg(long)]
+    pub no_inner_walls_on_roofs: bool,
     /// Skip surface reconstruction.
     #[arg(long)]
     pub no_mesh: bool,
@@ -108,6 +112,7 @@ impl ReconstructArgs {
             no_wall_columns: false,
             no_roof_edge_walls: false,
             no_hidden_roofs: false,
+            no_inner_walls_on_roofs: false,
             no_mesh: false,
             seed: None,
         }
@@ -374,6 +379,7 @@ pub fn run(args: ReconstructArgs) -> Result<ReconstructRunReport> {
             wall_columns: !args.no_wall_columns,
             roof_edge_walls: !args.no_roof_edge_walls,
             hidden_roofs: !args.no_hidden_roofs,
+            inner_walls_on_roofs: !args.no_inner_walls_on_roofs,
         }),
     };
     match &args.from_pairs {

@@ -66,6 +66,10 @@
 //!   saw, a roof at the walls' top ([`super::hidden_roofs`], on by default,
 //!   [`SurfaceOptions::hidden_roofs`]): a terminal on the ground and a base station on a mast
 //!   see no roof above the terminal, so without a UAV the roofs are not imaged at all;
+//! - inside a building whose imaged walls outline a footprint, the walls of the rules above and
+//!   below stand on its roof, not on the terrain ([`super::hidden_roofs::standing_on`], on by
+//!   default, [`SurfaceOptions::inner_walls_on_roofs`]): a riser or a ridge inside the outline
+//!   rises from the roof;
 //! - under each outer edge of an imaged or added roof (the imaging region's border is none:
 //!   nothing was imaged beyond it), a wall down to the terrain
 //!   ([`super::wall_columns::roof_edge_walls`], on by default,
@@ -80,7 +84,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 
-use super::hidden_roofs::{hidden_roofs, Footprint};
+use super::hidden_roofs::{hidden_roofs, standing_on, Footprint};
 use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult};
 use super::wall_columns::{roof_edge_walls, wall_columns};
 use super::world::Terrain;
@@ -137,6 +141,10 @@ pub struct SurfaceOptions {
     /// Roof the buildings whose imaged walls outline a rectangle or a circle and whose roof no
     /// pair saw (module docs, [`super::hidden_roofs`]).
     pub hidden_roofs: bool,
+    /// Inside a building whose imaged walls outline a footprint, stand the continued walls and
+    /// the walls under roof edges on its roof, not on the terrain (module docs,
+    /// [`super::hidden_roofs::standing_on`]).
+    pub inner_walls_on_roofs: bool,
 }
 
 impl Default for SurfaceOptions {
@@ -149,6 +157,7 @@ impl Default for SurfaceOptions {
             wall_columns: true,
             roof_edge_walls: true,
             hidden_roofs: true,
+            inner_walls_on_roofs: true,
         }
     }
 }
@@ -196,7 +205,8 @@ pub struct Surface {
     /// Samples of the roofs added over imaged walls ([`super::hidden_roofs`]), included in
     /// `points`.
     pub hidden_roof_samples: usize,
-    /// Each building's footprint as [`super::hidden_roofs`] read it from its walls.
+    /// Each building's footprint as [`super::hidden_roofs`] read it from its walls (with
+    /// [`SurfaceOptions::hidden_roofs`] off, each with 0 samples).
     pub footprints: Vec<Footprint>,
     /// Seconds for the whole stage.
     pub seconds: f64,
@@ -325,30 +335,39 @@ pub fn surface(
         let imaged = |p: Vec3| sc.in_region(p.with_z(clip_box.0.z));
         // The footprints are read from what the pairs detected, not from inferred walls.
         let detected = points.len();
+        let (roofs, prints) = hidden_roofs(
+            &points[..detected],
+            &normals[..detected],
+            &weights[..detected],
+            voxel,
+            support,
+            floor,
+            imaged,
+        );
+        // Inside a footprint a wall stands on the building's roof (module docs).
+        let inside: &[Footprint] = if opts.inner_walls_on_roofs {
+            &prints
+        } else {
+            &[]
+        };
+        let floor = standing_on(inside, support, floor);
         if opts.wall_columns {
-            let w = wall_columns(&points, &normals, &weights, voxel, support, floor, imaged);
+            let w = wall_columns(&points, &normals, &weights, voxel, support, &floor, imaged);
             fit.extend(w.normals.iter().copied());
             wall_column_samples = w.append_to(&mut points, &mut normals, &mut weights);
         }
+        footprints = prints.clone();
         if opts.hidden_roofs {
-            let n = detected;
-            let (w, f) = hidden_roofs(
-                &points[..n],
-                &normals[..n],
-                &weights[..n],
-                voxel,
-                support,
-                floor,
-                imaged,
-            );
-            footprints = f;
-            fit.extend(w.normals.iter().copied());
-            hidden_roof_samples = w.append_to(&mut points, &mut normals, &mut weights);
+            fit.extend(roofs.normals.iter().copied());
+            hidden_roof_samples = roofs.append_to(&mut points, &mut normals, &mut weights);
         }
         if opts.roof_edge_walls {
-            let w = roof_edge_walls(&points, &normals, &weights, voxel, support, floor, imaged);
+            let w = roof_edge_walls(&points, &normals, &weights, voxel, support, &floor, imaged);
             fit.extend(w.normals.iter().copied());
             roof_edge_samples = w.append_to(&mut points, &mut normals, &mut weights);
+        }
+        if !opts.hidden_roofs {
+            footprints.iter_mut().for_each(|f| f.samples = 0);
         }
     }
     let normals = fit;

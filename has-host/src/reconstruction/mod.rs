@@ -308,7 +308,9 @@ pub struct MeshReport {
     /// ([`imaging::hidden_roofs`]; 0 with the option off or the terrain unknown), before the
     /// roof-edge walls' in the mesher's input.
     pub hidden_roof_samples: usize,
-    /// Each building's footprint as read from its imaged walls ([`imaging::hidden_roofs`]).
+    /// Each building's footprint as read from its imaged walls ([`imaging::hidden_roofs`]):
+    /// its roof, and inside it the inferred walls stand on that roof
+    /// ([`imaging::hidden_roofs::standing_on`]).
     pub footprints: Vec<imaging::hidden_roofs::Footprint>,
     /// Density trim fraction, if any (none by default).
     pub trim_median_fraction: Option<f32>,
