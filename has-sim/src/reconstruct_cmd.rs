@@ -79,6 +79,10 @@ pub struct ReconstructArgs {
     /// (`has_host::imaging::hidden_roofs::standing_on`).
     #[arg(long)]
     pub no_inner_walls_on_roofs: bool,
+    /// Do not wall the gaps between the imaged pieces of a footprint's sides
+    /// (`has_host::imaging::outline_walls`).
+    #[arg(long)]
+    pub no_outline_walls: bool,
     /// Skip surface reconstruction.
     #[arg(long)]
     pub no_mesh: bool,
@@ -113,6 +117,7 @@ impl ReconstructArgs {
             no_roof_edge_walls: false,
             no_hidden_roofs: false,
             no_inner_walls_on_roofs: false,
+            no_outline_walls: false,
             no_mesh: false,
             seed: None,
         }
@@ -380,6 +385,7 @@ pub fn run(args: ReconstructArgs) -> Result<ReconstructRunReport> {
             roof_edge_walls: !args.no_roof_edge_walls,
             hidden_roofs: !args.no_hidden_roofs,
             inner_walls_on_roofs: !args.no_inner_walls_on_roofs,
+            outline_walls: !args.no_outline_walls,
         }),
     };
     match &args.from_pairs {

@@ -9,6 +9,7 @@ pub mod detection;
 pub mod driver;
 pub mod finer_height;
 pub mod hidden_roofs;
+pub mod outline_walls;
 pub mod run;
 pub mod surface;
 pub mod terrain_echo;

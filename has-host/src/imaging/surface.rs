@@ -74,6 +74,10 @@
 //!   nothing was imaged beyond it), a wall down to the terrain
 //!   ([`super::wall_columns::roof_edge_walls`], on by default,
 //!   [`SurfaceOptions::roof_edge_walls`]): the walls no pair saw at all;
+//! - across the gaps between the pieces of each side of a rectangular footprint (what was
+//!   imaged or inferred of the wall there), a wall from the roof down to the terrain
+//!   ([`super::outline_walls`], on by default, [`SurfaceOptions::outline_walls`]): a face no pair
+//!   saw, under a roof edge whose image's rim reads as a wall looking into the building;
 //! - optionally ([`SurfaceOptions::visibility_filter`]) points that a one level coarser first
 //!   surface hides from every pair that observed them are left out
 //!   ([`crate::mesh::visibility_consistent`], margin [`VISIBILITY_MARGIN_VOXELS`]).
@@ -85,6 +89,7 @@ use std::time::Instant;
 use glam::Vec3;
 
 use super::hidden_roofs::{hidden_roofs, standing_on, Footprint};
+use super::outline_walls::outline_walls;
 use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult};
 use super::wall_columns::{roof_edge_walls, wall_columns};
 use super::world::Terrain;
@@ -145,6 +150,9 @@ pub struct SurfaceOptions {
     /// the walls under roof edges on its roof, not on the terrain (module docs,
     /// [`super::hidden_roofs::standing_on`]).
     pub inner_walls_on_roofs: bool,
+    /// Wall the gaps between the pieces of each side of a rectangular footprint (module docs,
+    /// [`super::outline_walls`]).
+    pub outline_walls: bool,
 }
 
 impl Default for SurfaceOptions {
@@ -158,6 +166,7 @@ impl Default for SurfaceOptions {
             roof_edge_walls: true,
             hidden_roofs: true,
             inner_walls_on_roofs: true,
+            outline_walls: true,
         }
     }
 }
@@ -205,6 +214,9 @@ pub struct Surface {
     /// Samples of the roofs added over imaged walls ([`super::hidden_roofs`]), included in
     /// `points`.
     pub hidden_roof_samples: usize,
+    /// Samples of the walls across the gaps along the footprints' sides
+    /// ([`super::outline_walls`]), included in `points` after the roof-edge walls'.
+    pub outline_wall_samples: usize,
     /// Each building's footprint as [`super::hidden_roofs`] read it from its walls (with
     /// [`SurfaceOptions::hidden_roofs`] off, each with 0 samples).
     pub footprints: Vec<Footprint>,
@@ -328,6 +340,7 @@ pub fn surface(
         .map(|(w, _)| *w)
         .collect();
     let (mut wall_column_samples, mut roof_edge_samples, mut hidden_roof_samples) = (0, 0, 0);
+    let mut outline_wall_samples = 0;
     let mut footprints = Vec::new();
     if let Some(terrain) = terrain {
         let floor = |p: Vec3| terrain.below(p).map(|g| g.z.max(clip_box.0.z));
@@ -366,6 +379,15 @@ pub fn surface(
             fit.extend(w.normals.iter().copied());
             roof_edge_samples = w.append_to(&mut points, &mut normals, &mut weights);
         }
+        if opts.outline_walls {
+            let a = detected + wall_column_samples;
+            let added = points[a..a + hidden_roof_samples].to_vec();
+            let w = outline_walls(
+                &points, &normals, &weights, &prints, &added, voxel, support, &floor,
+            );
+            fit.extend(w.normals.iter().copied());
+            outline_wall_samples = w.append_to(&mut points, &mut normals, &mut weights);
+        }
         if !opts.hidden_roofs {
             footprints.iter_mut().for_each(|f| f.samples = 0);
         }
@@ -381,6 +403,7 @@ pub fn surface(
         wall_column_samples,
         roof_edge_samples,
         hidden_roof_samples,
+        outline_wall_samples,
         footprints,
         depth,
         cell_m: rec.poisson.cell_m,

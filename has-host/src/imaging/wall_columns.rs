@@ -92,7 +92,7 @@ impl WallColumns {
 
     /// One column of samples under `at`, from `hi` down to `lo` every `cell_m`, each with the
     /// normal and the weight (1 when none is given) of the sample it continues.
-    fn push_column(
+    pub(super) fn push_column(
         &mut self,
         at: Vec3,
         normal: Vec3,

@@ -308,6 +308,10 @@ pub struct MeshReport {
     /// ([`imaging::hidden_roofs`]; 0 with the option off or the terrain unknown), before the
     /// roof-edge walls' in the mesher's input.
     pub hidden_roof_samples: usize,
+    /// Samples of the walls across the gaps along the sides of the footprints
+    /// ([`imaging::outline_walls`]; 0 with the option off or the terrain unknown), after the
+    /// roof-edge walls' in the mesher's input.
+    pub outline_wall_samples: usize,
     /// Each building's footprint as read from its imaged walls ([`imaging::hidden_roofs`]):
     /// its roof, and inside it the inferred walls stand on that roof
     /// ([`imaging::hidden_roofs::standing_on`]).
@@ -686,6 +690,7 @@ fn mesh_stage(
         wall_column_samples: surf.wall_column_samples,
         roof_edge_samples: surf.roof_edge_samples,
         hidden_roof_samples: surf.hidden_roof_samples,
+        outline_wall_samples: surf.outline_wall_samples,
         footprints: surf.footprints.clone(),
         trim_median_fraction: opts.trim_median,
         sample_weights: "weight",
