@@ -381,9 +381,9 @@ pub fn surface(
         }
         if opts.outline_walls {
             let a = detected + wall_column_samples;
-            let added = points[a..a + hidden_roof_samples].to_vec();
+            let added = &points[a..a + hidden_roof_samples];
             let w = outline_walls(
-                &points, &normals, &weights, &prints, &added, voxel, support, &floor,
+                &points, &normals, &weights, &prints, added, voxel, support, &floor,
             );
             fit.extend(w.normals.iter().copied());
             outline_wall_samples = w.append_to(&mut points, &mut normals, &mut weights);
