@@ -83,6 +83,10 @@ pub struct ReconstructArgs {
     /// (`has_host::imaging::outline_walls`).
     #[arg(long)]
     pub no_outline_walls: bool,
+    /// Do not mirror a gable roof's imaged half about its ridge to place the footprint's side
+    /// no pair saw (`has_host::imaging::hidden_roofs`).
+    #[arg(long)]
+    pub no_gables: bool,
     /// Skip surface reconstruction.
     #[arg(long)]
     pub no_mesh: bool,
@@ -118,6 +122,7 @@ impl ReconstructArgs {
             no_hidden_roofs: false,
             no_inner_walls_on_roofs: false,
             no_outline_walls: false,
+            no_gables: false,
             no_mesh: false,
             seed: None,
         }
@@ -386,6 +391,7 @@ pub fn run(args: ReconstructArgs) -> Result<ReconstructRunReport> {
             hidden_roofs: !args.no_hidden_roofs,
             inner_walls_on_roofs: !args.no_inner_walls_on_roofs,
             outline_walls: !args.no_outline_walls,
+            gables: !args.no_gables,
         }),
     };
     match &args.from_pairs {

@@ -31,6 +31,21 @@
 //!   the least-squares circle through the walls, which must lie on it within the support
 //!   distance (rms), with no face inside it as above. Half a tank seen gives the whole disc.
 //!
+//! **A gable's far half.** A side no wall images is placed where the imaged sides across it
+//! end, which for a pitched roof seen from one side is about its ridge: the gable ends are
+//! imaged from the near eave up to a little past the ridge, and the far half — the far slope,
+//! the far wall — no pair saw (held-out district_54: a glass block's far side 5.6 m short, its
+//! far wall and half its roof missing, mesh √CD 2.78 m). A gable is symmetric about its ridge,
+//! so where the building's height profile across the rectangle (its highest sample per lattice
+//! cell of distance from the imaged side opposite) rises from that side's eave by a resolution
+//! cell or more to a peak inside, and falls past the peak as the mirror of its rise — within
+//! half a resolution cell over at least two lattice cells, by a lattice cell at least, nothing
+//! past the peak standing a lattice cell higher — the unimaged side stands at the mirror of the
+//! imaged one about the ridge (the axis the profile is most symmetric about among the cells
+//! within half a resolution cell of its top), if that is farther out. A mono-pitch roof rises
+//! on to the side and a sawtooth's riser drops where the mirror of its ramp stands high:
+//! neither is mirrored. The mirrored half is roofed flat like any hidden roof.
+//!
 //! The roof's samples are placed on the imaging lattice over the footprint where the cloud
 //! holds nothing near the walls' top (within a resolution cell under it) within the support
 //! distance: a roof imaged in part keeps its image and only its hidden part is added. An imaged
@@ -179,10 +194,21 @@ pub struct Footprint {
     pub samples: usize,
 }
 
+/// The lattice and rules [`hidden_roofs`] reads footprints and samples roofs with.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RoofOptions {
+    /// The lattice the roof is sampled on, metres.
+    pub cell_m: f32,
+    /// The support distance (half the coarsest resolution cell), metres.
+    pub front_m: f32,
+    /// Whether an unimaged side under a gable imaged past its ridge is mirrored (module docs,
+    /// "A gable's far half").
+    pub gables: bool,
+}
+
 /// The samples of the hidden roofs over the imaged walls (module docs), and each building's
 /// footprint (the groups with walls). `points`, `normals` (unit, oriented) and `weights` are
-/// the detected samples of the mesher's input; `cell_m` the lattice the roof is sampled on;
-/// `front_m` the support distance (half the coarsest resolution cell); `floor(p)` the known
+/// the detected samples of the mesher's input; `opts` the lattice and rules; `floor(p)` the known
 /// terrain under `p` (`None` where unknown); `imaged(p)` whether the imaging region covers `p`
 /// in xy (a roof is added only there).
 /// Deterministic: buildings in lattice order, samples in lattice order.
@@ -190,11 +216,15 @@ pub fn hidden_roofs(
     points: &[Vec3],
     normals: &[Vec3],
     weights: &[f32],
-    cell_m: f32,
-    front_m: f32,
+    opts: &RoofOptions,
     floor: impl Fn(Vec3) -> Option<f32>,
     imaged: impl Fn(Vec3) -> bool,
 ) -> (WallColumns, Vec<Footprint>) {
+    let RoofOptions {
+        cell_m,
+        front_m,
+        gables,
+    } = *opts;
     let mut out = WallColumns::default();
     let mut prints = Vec::new();
     if !(cell_m > 0.0 && cell_m.is_finite() && front_m > 0.0 && front_m.is_finite()) {
@@ -219,6 +249,7 @@ pub fn hidden_roofs(
             members: &members,
             cell_m,
             front_m,
+            gables,
         };
         let (fp, samples) = b.roof(&fronts, &imaged);
         for (p, w) in samples {
@@ -343,6 +374,8 @@ struct Building<'a> {
     members: &'a [usize],
     cell_m: f32,
     front_m: f32,
+    /// Whether a gable's far half is mirrored ([`hidden_roofs`]'s `gables`).
+    gables: bool,
 }
 
 impl Building<'_> {
@@ -547,6 +580,23 @@ impl Building<'_> {
         if (hi - lo).min_element() < 2.0 * front {
             return unknown("one face");
         }
+        // A gable's far half: an unimaged side across an imaged one moves to the mirror of the
+        // imaged side about the ridge the roof's profile peaks at (module docs).
+        if self.gables {
+            for s in 0..4 {
+                if first.imaged[s] || !first.imaged[s ^ 1] {
+                    continue;
+                }
+                if let Some(at) = self.gable_far_side(s, lo, hi, &uv) {
+                    match s {
+                        0 => lo.x = lo.x.min(at),
+                        1 => hi.x = hi.x.max(at),
+                        2 => lo.y = lo.y.min(at),
+                        _ => hi.y = hi.y.max(at),
+                    }
+                }
+            }
+        }
         let Sides {
             on: on_side,
             outline,
@@ -632,6 +682,103 @@ impl Building<'_> {
     }
 }
 
+impl Building<'_> {
+    /// Where side `s` of the rectangle `lo`–`hi` (frame `uv`) stands when the building's roof
+    /// is a gable whose far half no pair saw (module docs, "A gable's far half"): the mirror of
+    /// the opposite side about the ridge, when the roof's height profile across the rectangle
+    /// (the highest sample per lattice cell of the distance from the opposite side) rises by a
+    /// resolution cell from the opposite side's eave to a peak inside, and falls past the peak
+    /// as it rose before it — within half a resolution cell over at least two lattice cells, and
+    /// by at least one. `None` otherwise (a flat or mono-pitch roof, a sawtooth: its riser
+    /// drops where the mirror of its ramp stands high).
+    fn gable_far_side(
+        &self,
+        s: usize,
+        lo: Vec2,
+        hi: Vec2,
+        uv: &impl Fn(Vec2) -> Vec2,
+    ) -> Option<f32> {
+        let (front, tol, cell) = (self.front_m, 2.0 * self.front_m, self.cell_m);
+        // Distance from the opposite side toward `s`, and position along it.
+        let (lo_a, hi_a, lo_b, hi_b) = if s < 2 {
+            (lo.x, hi.x, lo.y, hi.y)
+        } else {
+            (lo.y, hi.y, lo.x, hi.x)
+        };
+        let span = hi_a - lo_a;
+        let bins = (span / cell).ceil() as usize;
+        if bins < 4 {
+            return None;
+        }
+        let mut h = vec![f32::NEG_INFINITY; bins];
+        for &i in self.members {
+            let p = self.points[i];
+            let q = uv(p.truncate());
+            let (a, b) = if s < 2 { (q.x, q.y) } else { (q.y, q.x) };
+            if !(lo_b..=hi_b).contains(&b) {
+                continue;
+            }
+            let t = if s % 2 == 1 { a - lo_a } else { hi_a - a };
+            if (0.0..span).contains(&t) {
+                let k = ((t / cell) as usize).min(bins - 1);
+                h[k] = h[k].max(p.z);
+            }
+        }
+        let centre = |k: usize| (k as f32 + 0.5) * cell;
+        let top = h.iter().copied().fold(f32::NEG_INFINITY, f32::max);
+        // The eave: the median of the profile within a resolution cell of the opposite side.
+        let mut eave: Vec<f32> = (0..bins)
+            .filter(|&k| centre(k) <= tol && h[k].is_finite())
+            .map(|k| h[k])
+            .collect();
+        eave.sort_by(f32::total_cmp);
+        let eave = *eave.get(eave.len() / 2)?;
+        if top - eave < tol || !top.is_finite() {
+            return None;
+        }
+        // Past a ridge (and more than the support distance inside the side, where the imaged
+        // sides' ends are sparse) the profile mirrors the rise: the pairs of cells the mirror
+        // about `ridge` matches, and the largest height difference among them.
+        let pairs = |ridge: f32| {
+            let (mut n, mut worst, mut sum, mut last) = (0usize, 0.0f32, 0.0f32, top);
+            for k in 0..bins {
+                let c = centre(k);
+                if c <= ridge || c > span - front || !h[k].is_finite() {
+                    continue;
+                }
+                let m = 2.0 * ridge - c;
+                if m < 0.0 {
+                    break;
+                }
+                let hm = h[((m / cell) as usize).min(bins - 1)];
+                if hm.is_finite() {
+                    let d = (h[k] - hm).abs();
+                    (n, worst, sum, last) = (n + 1, worst.max(d), sum + d, h[k]);
+                }
+            }
+            (n, worst, sum / n.max(1) as f32, last)
+        };
+        // The ridge: among the positions (every half lattice cell) where the profile stands
+        // within half a resolution cell of its top and nothing past stands a lattice cell
+        // higher (a roof rising on to the side is no gable), the axis the profile is most
+        // symmetric about (the top itself is a few noisy cells; the whole slope places the
+        // axis). Past it the profile falls by a lattice cell at least.
+        let at = |r: f32| h[((r / cell) as usize).min(bins - 1)];
+        let ridge = (0..2 * bins)
+            .map(|j| j as f32 * 0.5 * cell)
+            .filter(|&r| at(r) >= top - front)
+            .filter(|&r| (0..bins).all(|k| centre(k) <= r || h[k] <= at(r) + cell))
+            .filter_map(|r| {
+                let (n, worst, mean, last) = pairs(r);
+                (n >= 2 && worst <= front && last <= at(r) - cell).then_some((r, mean))
+            })
+            .min_by(|a, b| a.1.total_cmp(&b.1))?
+            .0;
+        let far = 2.0 * ridge;
+        (far > span).then_some(if s % 2 == 1 { lo_a + far } else { hi_a - far })
+    }
+}
+
 /// The walls of a building sorted by the sides of its bounding rectangle (0 = −u, 1 = +u,
 /// 2 = −v, 3 = +v).
 #[derive(Default)]
@@ -706,7 +853,15 @@ mod tests {
 
     fn roofs(s: &Samples) -> (WallColumns, Vec<Footprint>) {
         let w = vec![1.0; s.0.len()];
-        hidden_roofs(&s.0, &s.1, &w, CELL, FRONT, |_| Some(0.0), |_| true)
+        hidden_roofs(&s.0, &s.1, &w, &opts(true), |_| Some(0.0), |_| true)
+    }
+
+    fn opts(gables: bool) -> RoofOptions {
+        RoofOptions {
+            cell_m: CELL,
+            front_m: FRONT,
+            gables,
+        }
     }
 
     fn v(x: f32, y: f32) -> Vec2 {
@@ -907,9 +1062,59 @@ mod tests {
         assert!(added.points.is_empty());
         let s = l_of_walls();
         let w = vec![1.0; s.0.len()];
-        let (added, prints) = hidden_roofs(&s.0, &s.1, &w, CELL, FRONT, |_| None, |_| true);
+        let (added, prints) = hidden_roofs(&s.0, &s.1, &w, &opts(true), |_| None, |_| true);
         assert!(added.points.is_empty() && prints.is_empty());
-        let (added, _) = hidden_roofs(&s.0, &s.1, &w, CELL, FRONT, |_| Some(0.0), |_| false);
+        let (added, _) = hidden_roofs(&s.0, &s.1, &w, &opts(true), |_| Some(0.0), |_| false);
         assert!(added.points.is_empty());
+    }
+
+    /// A 16 m long building whose roof is imaged from its west eave (x = 0, 8 m) up to x = 9 m
+    /// with the given profile `top(x)`: its west wall, and its south and north ends imaged up
+    /// to the profile from x = 0 to 9 m; its east side no pair saw. The footprint's x extent
+    /// (with and without mirroring gables).
+    fn half_seen_roof(top: impl Fn(f32) -> f32) -> [(f32, f32); 2] {
+        let mut s = Samples::default();
+        wall(&mut s, v(0.0, 0.5), v(0.0, 15.5), -Vec2::X, 8.0);
+        for i in 0..=18 {
+            let x = 0.5 * i as f32;
+            wall(&mut s, v(x, 0.0), v(x, 0.0), -Vec2::Y, top(x));
+            wall(&mut s, v(x, 16.0), v(x, 16.0), Vec2::Y, top(x));
+            if i > 0 {
+                for j in 1..32 {
+                    s.0.push(Vec3::new(x, 0.5 * j as f32, top(x)));
+                    s.1.push(Vec3::Z);
+                }
+            }
+        }
+        let w = vec![1.0; s.0.len()];
+        [true, false].map(|gables| {
+            let (_, prints) = hidden_roofs(&s.0, &s.1, &w, &opts(gables), |_| Some(0.0), |_| true);
+            let Outline::Rectangle(c) = prints[0].outline else {
+                panic!("no rectangle: {:?}", prints[0].outline);
+            };
+            c.iter()
+                .fold((99.0f32, -99.0f32), |(l, h), q| (l.min(q.x), h.max(q.x)))
+        })
+    }
+
+    #[test]
+    fn a_gable_seen_past_its_ridge_is_as_deep_beyond_it_as_before_it() {
+        // A 12 m wide gable, ridge 4 m over the eaves at x = 6 m.
+        let [mirrored, plain] = half_seen_roof(|x| 8.0 + 4.0 * (1.0 - (x - 6.0).abs() / 6.0));
+        assert!(mirrored.0.abs() < 0.01, "{mirrored:?}");
+        // The ridge is placed to within half a lattice cell: the far side to within one.
+        assert!((mirrored.1 - 12.0).abs() <= CELL, "{mirrored:?}");
+        // Without the mirror the side stands where its ends were imaged.
+        assert!((plain.1 - 9.0).abs() < 0.01, "{plain:?}");
+    }
+
+    #[test]
+    fn a_mono_pitch_or_sawtooth_roof_is_not_mirrored() {
+        // Rising to the last imaged cell: no ridge inside.
+        let [mono, _] = half_seen_roof(|x| 8.0 + 0.4 * x);
+        assert!((mono.1 - 9.0).abs() < 0.01, "{mono:?}");
+        // A sawtooth: a 4 m ramp up to x = 6 m, a riser down, the next ramp.
+        let [saw, _] = half_seen_roof(|x| 8.0 + 4.0 * (x % 6.0) / 6.0);
+        assert!((saw.1 - 9.0).abs() < 0.01, "{saw:?}");
     }
 }

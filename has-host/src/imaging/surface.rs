@@ -65,7 +65,9 @@
 //! - over a building whose imaged walls outline a rectangle or a circle and whose roof no pair
 //!   saw, a roof at the walls' top ([`super::hidden_roofs`], on by default,
 //!   [`SurfaceOptions::hidden_roofs`]): a terminal on the ground and a base station on a mast
-//!   see no roof above the terminal, so without a UAV the roofs are not imaged at all;
+//!   see no roof above the terminal, so without a UAV the roofs are not imaged at all; a
+//!   footprint's side no wall images stands, under a gable imaged past its ridge, at the mirror
+//!   of the opposite side about the ridge (on by default, [`SurfaceOptions::gables`]);
 //! - inside a building whose imaged walls outline a footprint, the walls of the rules above and
 //!   below stand on its roof, not on the terrain ([`super::hidden_roofs::standing_on`], on by
 //!   default, [`SurfaceOptions::inner_walls_on_roofs`]): a riser or a ridge inside the outline
@@ -88,7 +90,7 @@ use std::time::Instant;
 
 use glam::Vec3;
 
-use super::hidden_roofs::{hidden_roofs, standing_on, Footprint};
+use super::hidden_roofs::{hidden_roofs, standing_on, Footprint, RoofOptions};
 use super::outline_walls::outline_walls;
 use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult};
 use super::wall_columns::{roof_edge_walls, wall_columns};
@@ -153,6 +155,9 @@ pub struct SurfaceOptions {
     /// Wall the gaps between the pieces of each side of a rectangular footprint (module docs,
     /// [`super::outline_walls`]).
     pub outline_walls: bool,
+    /// Place a footprint's side no pair saw at the mirror of the opposite side about the ridge
+    /// of a gable roof imaged past its ridge (module docs, [`super::hidden_roofs`]).
+    pub gables: bool,
 }
 
 impl Default for SurfaceOptions {
@@ -167,6 +172,7 @@ impl Default for SurfaceOptions {
             hidden_roofs: true,
             inner_walls_on_roofs: true,
             outline_walls: true,
+            gables: true,
         }
     }
 }
@@ -352,8 +358,11 @@ pub fn surface(
             &points[..detected],
             &normals[..detected],
             &weights[..detected],
-            voxel,
-            support,
+            &RoofOptions {
+                cell_m: voxel,
+                front_m: support,
+                gables: opts.gables,
+            },
             floor,
             imaged,
         );
