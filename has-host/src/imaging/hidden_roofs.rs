@@ -275,6 +275,23 @@ fn column(q: Vec2, size: f32) -> (i64, i64) {
     ((q.x / size).floor() as i64, (q.y / size).floor() as i64)
 }
 
+/// Whether any entry of the lattice columns of side `size` around `q` (its own and the eight
+/// neighbours: every point within `size` of `q`) satisfies `hit`.
+fn any_near<T>(
+    cols: &BTreeMap<(i64, i64), Vec<T>>,
+    q: Vec2,
+    size: f32,
+    hit: impl Fn(&T) -> bool,
+) -> bool {
+    let k = column(q, size);
+    (-1..=1).any(|dx| {
+        (-1..=1).any(|dy| {
+            cols.get(&(k.0 + dx, k.1 + dy))
+                .is_some_and(|c| c.iter().any(&hit))
+        })
+    })
+}
+
 /// The connected groups (eight neighbours) of a lattice's occupied columns, each as the union
 /// of its columns' entries, in lattice order.
 fn components<T: Copy>(cols: &BTreeMap<(i64, i64), Vec<T>>) -> Vec<Vec<T>> {
@@ -423,15 +440,7 @@ impl Building<'_> {
                 .or_default()
                 .push(p.truncate());
         }
-        let covered = |q: Vec2| {
-            let k = column(q, front);
-            (-1..=1).any(|dx| {
-                (-1..=1).any(|dy| {
-                    near.get(&(k.0 + dx, k.1 + dy))
-                        .is_some_and(|c| c.iter().any(|r| r.distance(q) <= front))
-                })
-            })
-        };
+        let covered = |q: Vec2| any_near(&near, q, front, |r| r.distance(q) <= front);
         // The roof's lattice: the world's, cell centres inside the outline.
         let ((a0, b0), (a1, b1)) = (column(lo, self.cell_m), column(hi, self.cell_m));
         let mut samples: Vec<(Vec3, Vec3, f32)> = (b0..=b1)
@@ -837,16 +846,7 @@ impl Building<'_> {
                 .or_default()
                 .push(p);
         }
-        let taken = |q: Vec3| {
-            let k = column(q.truncate(), front);
-            (-1..=1).any(|dx| {
-                (-1..=1).any(|dy| {
-                    by_column
-                        .get(&(k.0 + dx, k.1 + dy))
-                        .is_some_and(|c| c.iter().any(|r| r.distance(q) <= front))
-                })
-            })
-        };
+        let taken = |q: Vec3| any_near(&by_column, q.truncate(), front, |r| r.distance(q) <= front);
         let axis = m.axis.extend(0.0);
         self.members
             .iter()
