@@ -1167,8 +1167,12 @@ mod tests {
     /// with the given profile `top(x)`: its west wall, and its south and north ends imaged up
     /// to the profile from x = 0 to 9 m; its east side no pair saw. The footprint's x extent
     /// with and without mirroring gables, and the roof samples added with.
-    fn half_seen_roof(top: impl Fn(f32) -> f32) -> ([(f32, f32); 2], WallColumns) {
+    fn half_seen_roof(top: impl Fn(f32) -> f32, far: &[Vec3]) -> ([(f32, f32); 2], WallColumns) {
         let mut s = Samples::default();
+        for &p in far {
+            s.0.push(p);
+            s.1.push(Vec3::Z);
+        }
         wall(&mut s, v(0.0, 0.5), v(0.0, 15.5), -Vec2::X, 8.0);
         for i in 0..=18 {
             let x = 0.5 * i as f32;
@@ -1203,7 +1207,7 @@ mod tests {
     fn a_gable_seen_past_its_ridge_is_as_deep_beyond_it_as_before_it() {
         // A 12 m wide gable, ridge 4 m over the eaves at x = 6 m.
         let gable = |x: f32| 8.0 + 4.0 * (1.0 - (x - 6.0).abs() / 6.0);
-        let ([mirrored, plain], added) = half_seen_roof(gable);
+        let ([mirrored, plain], added) = half_seen_roof(gable, &[]);
         assert!(mirrored.0.abs() < 0.01, "{mirrored:?}");
         // The ridge is placed to within half a lattice cell: the far side to within one.
         assert!((mirrored.1 - 12.0).abs() <= CELL, "{mirrored:?}");
@@ -1230,10 +1234,36 @@ mod tests {
     #[test]
     fn a_mono_pitch_or_sawtooth_roof_is_not_mirrored() {
         // Rising to the last imaged cell: no ridge inside.
-        let ([mono, _], _) = half_seen_roof(|x| 8.0 + 0.4 * x);
+        let ([mono, _], _) = half_seen_roof(|x| 8.0 + 0.4 * x, &[]);
         assert!((mono.1 - 9.0).abs() < 0.01, "{mono:?}");
         // A sawtooth: a 4 m ramp up to x = 6 m, a riser down, the next ramp.
-        let ([saw, _], _) = half_seen_roof(|x| 8.0 + 4.0 * (x % 6.0) / 6.0);
+        let ([saw, _], _) = half_seen_roof(|x| 8.0 + 4.0 * (x % 6.0) / 6.0, &[]);
         assert!((saw.1 - 9.0).abs() < 0.01, "{saw:?}");
+    }
+
+    #[test]
+    fn the_far_halfs_own_image_is_kept_and_not_mirrored_over() {
+        // A patch of the far slope imaged: 1 m × 3 m at x = 9…10 m, y = 7…10 m.
+        let gable = |x: f32| 8.0 + 4.0 * (1.0 - (x - 6.0).abs() / 6.0);
+        let patch: Vec<Vec3> = (0..=2)
+            .flat_map(|i| (0..=6).map(move |j| (9.0 + 0.5 * i as f32, 7.0 + 0.5 * j as f32)))
+            .map(|(x, y)| Vec3::new(x, y, gable(x)))
+            .collect();
+        let (_, added) = half_seen_roof(gable, &patch);
+        let mirrored: Vec<&Vec3> = added
+            .points
+            .iter()
+            .zip(&added.normals)
+            .filter(|(_, n)| **n != Vec3::Z)
+            .map(|(p, _)| p)
+            .collect();
+        assert!(!mirrored.is_empty());
+        for p in mirrored {
+            let d = patch
+                .iter()
+                .map(|q| q.distance(*p))
+                .fold(f32::INFINITY, f32::min);
+            assert!(d > FRONT, "{p} {d}");
+        }
     }
 }
