@@ -214,8 +214,8 @@ pub struct RoofOptions {
 /// The samples of the hidden roofs over the imaged walls (module docs), and each building's
 /// footprint (the groups with walls). `points`, `normals` (unit, oriented) and `weights` are
 /// the detected samples of the mesher's input; `opts` the lattice and rules; `floor(p)` the known
-/// terrain under `p` (`None` where unknown); `imaged(p)` whether the imaging region covers `p`
-/// in xy (a roof is added only there).
+/// terrain under `p` (`None` where unknown); `imaged(q)` whether the imaging region covers the
+/// ground position `q` (a roof is added only there).
 /// Deterministic: buildings in lattice order, samples in lattice order.
 pub fn hidden_roofs(
     points: &[Vec3],
@@ -223,7 +223,7 @@ pub fn hidden_roofs(
     weights: &[f32],
     opts: &RoofOptions,
     floor: impl Fn(Vec3) -> Option<f32>,
-    imaged: impl Fn(Vec3) -> bool,
+    imaged: impl Fn(Vec2) -> bool,
 ) -> (WallColumns, Vec<Footprint>) {
     let RoofOptions {
         cell_m,
@@ -405,7 +405,7 @@ impl Building<'_> {
     fn roof(
         &self,
         fronts: &Fronts,
-        imaged: &impl Fn(Vec3) -> bool,
+        imaged: &impl Fn(Vec2) -> bool,
     ) -> (Footprint, Vec<(Vec3, Vec3, f32)>) {
         let pts = |i: &usize| self.points[*i];
         let centre = self.members.iter().map(|i| pts(i).truncate()).sum::<Vec2>()
@@ -446,10 +446,8 @@ impl Building<'_> {
         let mut samples: Vec<(Vec3, Vec3, f32)> = (b0..=b1)
             .flat_map(|b| (a0..=a1).map(move |a| Vec2::new(a as f32, b as f32)))
             .map(|k| (k + 0.5) * self.cell_m)
-            .filter(|&q| fp.outline.contains(q) && !covered(q))
-            .map(|q| q.extend(height))
-            .filter(|&p| imaged(p))
-            .map(|p| (p, Vec3::Z, weight))
+            .filter(|&q| fp.outline.contains(q) && !covered(q) && imaged(q))
+            .map(|q| (q.extend(height), Vec3::Z, weight))
             .collect();
         samples.extend(mirrored);
         // An imaged face looks out over open ground: a roof straight in front of a face below
@@ -833,7 +831,7 @@ impl Building<'_> {
         m: &Mirror,
         above: f32,
         outline: &Outline,
-        imaged: &impl Fn(Vec3) -> bool,
+        imaged: &impl Fn(Vec2) -> bool,
         weight: f32,
     ) -> Vec<(Vec3, Vec3, f32)> {
         let max_nz = WALL_MAX_TILT_DEG.to_radians().sin();
@@ -859,8 +857,10 @@ impl Building<'_> {
                 }
                 let q = p + 2.0 * before * axis;
                 let nq = n - 2.0 * n.dot(axis) * axis;
-                (outline.depth_inside(q.truncate()) > 2.0 * front && imaged(q) && !taken(q))
-                    .then_some((q, nq, weight))
+                (outline.depth_inside(q.truncate()) > 2.0 * front
+                    && imaged(q.truncate())
+                    && !taken(q))
+                .then_some((q, nq, weight))
             })
             .collect()
     }
@@ -1187,10 +1187,16 @@ mod tests {
             }
         }
         let w = vec![1.0; s.0.len()];
+        // The imaged region, a test that rewrites its argument in place: what hidden_roofs
+        // does must not depend on it (with rustc 1.77–1.95 in release builds such a change of
+        // a by-value point reached the caller's own, rust-lang/rust#155241).
+        let region = |mut q: Vec2| {
+            q *= std::hint::black_box(0.5);
+            q.length() < 50.0
+        };
         let mut added = WallColumns::default();
         let extent = [true, false].map(|gables| {
-            let (roof, prints) =
-                hidden_roofs(&s.0, &s.1, &w, &opts(gables), |_| Some(0.0), |_| true);
+            let (roof, prints) = hidden_roofs(&s.0, &s.1, &w, &opts(gables), |_| Some(0.0), region);
             if gables {
                 added = roof;
             }

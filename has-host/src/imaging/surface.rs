@@ -88,7 +88,7 @@
 
 use std::time::Instant;
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 use super::hidden_roofs::{hidden_roofs, standing_on, Footprint, RoofOptions};
 use super::outline_walls::outline_walls;
@@ -350,8 +350,13 @@ pub fn surface(
     let mut footprints = Vec::new();
     if let Some(terrain) = terrain {
         let floor = |p: Vec3| terrain.below(p).map(|g| g.z.max(clip_box.0.z));
-        // The imaging region's footprint: beyond it nothing was imaged (module docs).
-        let imaged = |p: Vec3| sc.in_region(p.with_z(clip_box.0.z));
+        // The imaging region's footprint: beyond it nothing was imaged (module docs). It is
+        // asked of ground positions: rustc 1.77–1.95 in release builds can let a closure's
+        // in-place change of a by-value argument passed by pointer reach the caller's variable
+        // (rust-lang/rust#155241); when this took the 3D point and set its height to the
+        // region's floor (`p.with_z`), the mirrored roof's test of a point's neighbourhood saw
+        // the point at that floor.
+        let imaged = |q: Vec2| sc.in_region(q.extend(clip_box.0.z));
         // The footprints are read from what the pairs detected, not from inferred walls.
         let detected = points.len();
         let (roofs, prints) = hidden_roofs(

@@ -54,7 +54,7 @@
 
 use std::collections::{BTreeMap, HashSet};
 
-use glam::Vec3;
+use glam::{Vec2, Vec3};
 
 /// Largest angle between a sample's normal and the horizontal at which the sample is taken as a
 /// wall, degrees. Roofs are flat or pitched well below 70° (a normal at least 20° from the
@@ -168,11 +168,11 @@ impl Fronts {
     }
 
     /// Whether the sample at `p` with normal `n` has an open front; `imaged(q)` whether the
-    /// imaging region covers `q` in xy.
-    pub(super) fn open(&self, p: Vec3, n: Vec3, imaged: impl Fn(Vec3) -> bool) -> bool {
+    /// imaging region covers the ground position `q`.
+    pub(super) fn open(&self, p: Vec3, n: Vec3, imaged: impl Fn(Vec2) -> bool) -> bool {
         let (cell, steps) = (self.cell_m, self.steps);
         let ahead = Vec3::new(n.x, n.y, 0.0).normalize_or_zero();
-        imaged(p + ahead * (2 * steps) as f32 * cell)
+        imaged((p + ahead * (2 * steps) as f32 * cell).truncate())
             && (1..=2 * steps).all(|j| {
                 let q = cell_of(p + ahead * (j as f32 * cell), cell);
                 let dz = if j <= steps { 1 } else { steps };
@@ -191,8 +191,8 @@ fn usable(cell_m: f32, front_m: f32) -> bool {
 /// neighbour continues too (module docs). `points`, `normals` (unit, oriented) and `weights`
 /// are the mesher's input, one entry each per sample; `front_m` the depth of the open front a
 /// wall needs; `floor(p)` is the height the column under `p` ends at (the known terrain, not
-/// below the imaging region), `None` where it is not known; `imaged(p)` whether the imaging
-/// region covers `p` in xy — a front that reaches beyond it is not known to be open (module
+/// below the imaging region), `None` where it is not known; `imaged(q)` whether the imaging
+/// region covers the ground position `q` — a front that reaches beyond it is not known to be open (module
 /// docs). Deterministic: columns in lattice order, samples top down.
 pub fn wall_columns(
     points: &[Vec3],
@@ -201,7 +201,7 @@ pub fn wall_columns(
     cell_m: f32,
     front_m: f32,
     floor: impl Fn(Vec3) -> Option<f32>,
-    imaged: impl Fn(Vec3) -> bool,
+    imaged: impl Fn(Vec2) -> bool,
 ) -> WallColumns {
     let mut out = WallColumns::default();
     if !usable(cell_m, front_m) {
@@ -288,7 +288,7 @@ pub fn roof_edge_walls(
     cell_m: f32,
     front_m: f32,
     floor: impl Fn(Vec3) -> Option<f32>,
-    imaged: impl Fn(Vec3) -> bool,
+    imaged: impl Fn(Vec2) -> bool,
 ) -> WallColumns {
     let mut out = WallColumns::default();
     if !usable(cell_m, front_m) {
@@ -325,7 +325,7 @@ pub fn roof_edge_walls(
     }
     // Whether, looking from `p` along `u`, the cloud stays above `z` as far as it reaches.
     let open = |p: Vec3, u: Vec3, z: f32| {
-        if !imaged(p + u * (2.0 * front_m)) {
+        if !imaged((p + u * (2.0 * front_m)).truncate()) {
             return false;
         }
         let own = key(p);
@@ -730,7 +730,7 @@ mod tests {
         // go on beyond it, nothing there was imaged. Walls stand on the other three sides only.
         let p = roof((0.25, 10.25), (0.25, 10.25), 10.0, |_| false);
         let n = vec![Vec3::Z; p.len()];
-        let inside = |q: Vec3| q.x <= 10.5;
+        let inside = |q: Vec2| q.x <= 10.5;
         let c = roof_edge_walls(&p, &n, &vec![0.7; p.len()], 0.5, 2.0, |_| Some(0.5), inside);
         assert!(
             c.points.iter().any(|q| q.x < 1.0),
