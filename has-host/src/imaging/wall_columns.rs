@@ -41,7 +41,13 @@
 //! completeness error is truth more than 1.5 m from the cloud, and nearly all of it lies under a
 //! detected roof; docs/results.md) — the roof does not hang in the air either: a roof column
 //! that looks out over open ground is a building's edge, and a wall stands under it down to the
-//! terrain.
+//! terrain. Open ground is what the cloud holds nothing of up to the roof's height — or, when
+//! what the look meets lies more than a resolution cell away, another building's face looking
+//! back along it: a face is imaged from the side it looks to, so between two buildings the
+//! ground before it is open, where a hole in a roof has roof on its far side and a building's
+//! own far wall looks away. Without it a glass block's side 8–10 m across a passage from a
+//! block as tall (held-out district_51, quick) had no wall under its imaged roof edge — the
+//! other building, met first at its roof, closed every look — and held most of the mesh's error.
 //!
 //! **Beyond the imaging region nothing was imaged**, so nothing is known to be open there: a
 //! wall's front and a roof's open sector count only where the region reaches two `front_m` past
@@ -263,6 +269,10 @@ pub fn wall_columns(
 /// Azimuths at which [`roof_edge_walls`] looks out from a roof column (every 11.25°).
 pub const EDGE_AZIMUTHS: usize = 32;
 
+/// A wall sample looks back along a roof edge's ray when its normal is within 45° of the
+/// reverse of the ray (the cosine).
+pub const FACE_BACK_MIN_COS: f32 = std::f32::consts::FRAC_1_SQRT_2;
+
 /// Smallest open sector of the horizon that makes a roof column an edge, degrees. Seen from one
 /// of its columns through the lattice of columns, a straight edge opens a quarter of the horizon
 /// (the rays within 45° of its line cross its neighbouring columns, which hold roof), less where
@@ -279,7 +289,11 @@ pub const EDGE_MIN_OPEN_DEG: f32 = 45.0;
 /// column or of its neighbours or to `floor`, samples every `cell_m` facing the middle of the
 /// open sector, with the roof sample's weight — where a neighbouring column is an edge too.
 /// A hole in a roof (a part no pair detected) has roof on its far side and is no edge; nor is a
-/// roof inside a building whose walls were imaged, nor one that faces another building.
+/// roof inside a building whose walls were imaged, nor one that faces another building — unless
+/// what a look meets first lies more than a resolution cell (two `front_m`) away and within a
+/// resolution cell past it, in its column or the next, stands a wall sample more than a
+/// resolution cell under the roof's height whose normal is within 45° of looking back
+/// ([`FACE_BACK_MIN_COS`]): another building's face across open ground (module docs).
 /// Arguments as [`wall_columns`]. Deterministic: columns in lattice order, samples top down.
 pub fn roof_edge_walls(
     points: &[Vec3],
@@ -323,7 +337,20 @@ pub fn roof_edge_walls(
         let i = (y - y0) as usize * nx + (x - x0) as usize;
         lowest[i] = h.iter().copied().fold(f32::INFINITY, f32::min);
     }
-    // Whether, looking from `p` along `u`, the cloud stays above `z` as far as it reaches.
+    // Per column, its wall samples (height, horizontal normal).
+    let mut faces: BTreeMap<(i64, i64), Vec<(f32, Vec2)>> = BTreeMap::new();
+    for (p, n) in points.iter().zip(normals) {
+        if p.is_finite() && n.z.abs() < min_nz {
+            faces
+                .entry(key(*p))
+                .or_default()
+                .push((p.z, n.truncate().normalize_or_zero()));
+        }
+    }
+    let facing_back = FACE_BACK_MIN_COS;
+    // Whether, looking from `p` along `u`, the cloud stays above `z` as far as it reaches, or
+    // what first holds something at or under `z` is, more than a resolution cell away, another
+    // face looking back across the open ground between under the roof's height.
     let open = |p: Vec3, u: Vec3, z: f32| {
         if !imaged((p + u * (2.0 * front_m)).truncate()) {
             return false;
@@ -337,6 +364,25 @@ pub fn roof_edge_walls(
             }
             let i = (k.1 - y0) as usize * nx + (k.0 - x0) as usize;
             if k != own && lowest[i] <= z {
+                if t <= 2.0 * front_m {
+                    return false;
+                }
+                // The face looking back: in the columns next to the ray from what it met on
+                // for a resolution cell.
+                let looks_back = |c: &(i64, i64)| {
+                    faces.get(c).is_some_and(|f| {
+                        f.iter().any(|&(h, n)| {
+                            h < z - 2.0 * front_m && n.dot(u.truncate()) <= -facing_back
+                        })
+                    })
+                };
+                let mut s = 0.0;
+                while s <= 2.0 * front_m {
+                    if neighbours(key(p + u * (t + s))).any(|c| looks_back(&c)) {
+                        return true;
+                    }
+                    s += 0.5 * cell_m;
+                }
                 return false;
             }
             t += 0.5 * cell_m;
@@ -722,6 +768,56 @@ mod tests {
                 "a wall at {q} faces {n} across the street"
             );
         }
+    }
+
+    #[test]
+    fn a_roof_across_open_ground_from_a_face_looking_back_has_its_edge() {
+        // The street of the test above, the second building's face on it imaged (facing −x,
+        // 0.5–11.5 m): a pair saw it from the street, so the ground before it is open and the
+        // first roof's street side is an edge.
+        let mut p = roof((0.25, 10.25), (0.25, 10.25), 10.0, |_| false);
+        p.extend(roof((14.75, 24.75), (0.25, 10.25), 12.0, |_| false));
+        let mut n = vec![Vec3::Z; p.len()];
+        for k in 0..21 {
+            for j in 0..23 {
+                p.push(Vec3::new(14.6, 0.25 + 0.5 * k as f32, 0.5 + 0.5 * j as f32));
+                n.push(Vec3::NEG_X);
+            }
+        }
+        let walls = |p: &[Vec3], n: &[Vec3]| {
+            roof_edge_walls(p, n, &vec![0.7; p.len()], 0.5, 2.0, |_| Some(0.5), |_| true)
+        };
+        let street_side = |q: &Vec3, m: &Vec3| {
+            (q.x - 10.25).abs() < 0.3 && (2.0..8.5).contains(&q.y) && m.dot(Vec3::X) > 0.7
+        };
+        let c = walls(&p, &n);
+        let on_street = c
+            .points
+            .iter()
+            .zip(&c.normals)
+            .filter(|(q, m)| street_side(q, m));
+        let heights: Vec<f32> = on_street.map(|(q, _)| q.z).collect();
+        assert!(
+            heights.len() >= 13 * 18,
+            "{} samples on the street side",
+            heights.len()
+        );
+        assert!(heights
+            .iter()
+            .all(|&z| (0.5 - 1e-4..=9.5 + 1e-4).contains(&z)));
+        // A taller part adjoining the roof (its face within a resolution cell of the roof's
+        // edge) is no open ground: the same face moved to x = 11 m stands on the roof.
+        for q in p.iter_mut().filter(|q| q.x == 14.6) {
+            q.x = 11.0;
+        }
+        let c = walls(&p, &n);
+        assert!(
+            !c.points
+                .iter()
+                .zip(&c.normals)
+                .any(|(q, m)| street_side(q, m)),
+            "a wall under the roof against the taller part"
+        );
     }
 
     #[test]
