@@ -87,6 +87,10 @@ pub struct ReconstructArgs {
     /// no pair saw (`has_host::imaging::hidden_roofs`).
     #[arg(long)]
     pub no_gables: bool,
+    /// Do not continue imaged roof slopes down their fall line to a face rising above them
+    /// (`has_host::imaging::valleys`).
+    #[arg(long)]
+    pub no_valleys: bool,
     /// Skip surface reconstruction.
     #[arg(long)]
     pub no_mesh: bool,
@@ -123,6 +127,7 @@ impl ReconstructArgs {
             no_inner_walls_on_roofs: false,
             no_outline_walls: false,
             no_gables: false,
+            no_valleys: false,
             no_mesh: false,
             seed: None,
         }
@@ -392,6 +397,7 @@ pub fn run(args: ReconstructArgs) -> Result<ReconstructRunReport> {
             inner_walls_on_roofs: !args.no_inner_walls_on_roofs,
             outline_walls: !args.no_outline_walls,
             gables: !args.no_gables,
+            valleys: !args.no_valleys,
         }),
     };
     match &args.from_pairs {

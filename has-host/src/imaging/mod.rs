@@ -13,6 +13,7 @@ pub mod outline_walls;
 pub mod run;
 pub mod surface;
 pub mod terrain_echo;
+pub mod valleys;
 pub mod wall_columns;
 pub mod world;
 

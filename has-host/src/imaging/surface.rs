@@ -72,6 +72,10 @@
 //!   below stand on its roof, not on the terrain ([`super::hidden_roofs::standing_on`], on by
 //!   default, [`SurfaceOptions::inner_walls_on_roofs`]): a riser or a ridge inside the outline
 //!   rises from the roof;
+//! - down the fall line of each imaged roof slope to a face rising above it across what no pair
+//!   imaged, the slope and that face's foot ([`super::valleys`], on by default,
+//!   [`SurfaceOptions::valleys`]): a sawtooth roof's valleys behind its risers, which no pair sees
+//!   and Poisson bridged from one tooth's top to the next;
 //! - under each outer edge of an imaged or added roof (the imaging region's border is none:
 //!   nothing was imaged beyond it), a wall down to the terrain
 //!   ([`super::wall_columns::roof_edge_walls`], on by default,
@@ -93,6 +97,7 @@ use glam::{Vec2, Vec3};
 use super::hidden_roofs::{hidden_roofs, standing_on, Footprint, RoofOptions};
 use super::outline_walls::outline_walls;
 use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult};
+use super::valleys::valleys;
 use super::wall_columns::{roof_edge_walls, wall_columns};
 use super::world::Terrain;
 use crate::knn::GeometryError;
@@ -158,6 +163,9 @@ pub struct SurfaceOptions {
     /// Place a footprint's side no pair saw at the mirror of the opposite side about the ridge
     /// of a gable roof imaged past its ridge (module docs, [`super::hidden_roofs`]).
     pub gables: bool,
+    /// Continue each imaged roof slope down its fall line to a face rising above it, and the
+    /// face down to it (module docs, [`super::valleys`]).
+    pub valleys: bool,
 }
 
 impl Default for SurfaceOptions {
@@ -173,6 +181,7 @@ impl Default for SurfaceOptions {
             inner_walls_on_roofs: true,
             outline_walls: true,
             gables: true,
+            valleys: true,
         }
     }
 }
@@ -223,6 +232,9 @@ pub struct Surface {
     /// Samples of the walls across the gaps along the footprints' sides
     /// ([`super::outline_walls`]), included in `points` after the roof-edge walls'.
     pub outline_wall_samples: usize,
+    /// Samples of the slopes and faces meeting in valleys ([`super::valleys`]), included in
+    /// `points` after the hidden roofs' and before the roof-edge walls'.
+    pub valley_samples: usize,
     /// Each building's footprint as [`super::hidden_roofs`] read it from its walls (with
     /// [`SurfaceOptions::hidden_roofs`] off, each with 0 samples).
     pub footprints: Vec<Footprint>,
@@ -346,7 +358,7 @@ pub fn surface(
         .map(|(w, _)| *w)
         .collect();
     let (mut wall_column_samples, mut roof_edge_samples, mut hidden_roof_samples) = (0, 0, 0);
-    let mut outline_wall_samples = 0;
+    let (mut outline_wall_samples, mut valley_samples) = (0, 0);
     let mut footprints = Vec::new();
     if let Some(terrain) = terrain {
         let floor = |p: Vec3| terrain.below(p).map(|g| g.z.max(clip_box.0.z));
@@ -388,6 +400,14 @@ pub fn surface(
             fit.extend(roofs.normals.iter().copied());
             hidden_roof_samples = roofs.append_to(&mut points, &mut normals, &mut weights);
         }
+        if opts.valleys {
+            let ground = |p: Vec3| terrain.below(p).map(|g| g.z);
+            let v = valleys(
+                &points, &fit, &weights, detected, voxel, support, ground, imaged,
+            );
+            fit.extend(v.normals.iter().copied());
+            valley_samples = v.append_to(&mut points, &mut normals, &mut weights);
+        }
         if opts.roof_edge_walls {
             let w = roof_edge_walls(&points, &normals, &weights, voxel, support, &floor, imaged);
             fit.extend(w.normals.iter().copied());
@@ -418,6 +438,7 @@ pub fn surface(
         roof_edge_samples,
         hidden_roof_samples,
         outline_wall_samples,
+        valley_samples,
         footprints,
         depth,
         cell_m: rec.poisson.cell_m,

@@ -312,6 +312,9 @@ pub struct MeshReport {
     /// ([`imaging::outline_walls`]; 0 with the option off or the terrain unknown), after the
     /// roof-edge walls' in the mesher's input.
     pub outline_wall_samples: usize,
+    /// Samples of the roof slopes continued down to a face rising above them and of that face
+    /// down to the slope ([`imaging::valleys`]; 0 with the option off or the terrain unknown).
+    pub valley_samples: usize,
     /// Each building's footprint as read from its imaged walls ([`imaging::hidden_roofs`]):
     /// its roof, and inside it the inferred walls stand on that roof
     /// ([`imaging::hidden_roofs::standing_on`]).
@@ -691,6 +694,7 @@ fn mesh_stage(
         roof_edge_samples: surf.roof_edge_samples,
         hidden_roof_samples: surf.hidden_roof_samples,
         outline_wall_samples: surf.outline_wall_samples,
+        valley_samples: surf.valley_samples,
         footprints: surf.footprints.clone(),
         trim_median_fraction: opts.trim_median,
         sample_weights: "weight",

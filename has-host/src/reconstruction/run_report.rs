@@ -114,13 +114,14 @@ impl ReconstructRunReport {
             let roofed = m.footprints.iter().filter(|f| f.samples > 0).count();
             writeln!(
                 s,
-                "Inferred in the mesher's input: {} samples continuing walls down to what they stand on, {} of roofs over {} of {} buildings whose imaged walls outline a footprint and whose roof no pair saw, {} of walls under the outer edges of roofs, {} of walls across the gaps along the footprints' sides.",
+                "Inferred in the mesher's input: {} samples continuing walls down to what they stand on, {} of roofs over {} of {} buildings whose imaged walls outline a footprint and whose roof no pair saw, {} of walls under the outer edges of roofs, {} of walls across the gaps along the footprints' sides, {} of roof slopes and faces meeting in valleys.",
                 m.wall_column_samples,
                 m.hidden_roof_samples,
                 roofed,
                 m.footprints.len(),
                 m.roof_edge_samples,
-                m.outline_wall_samples
+                m.outline_wall_samples,
+                m.valley_samples
             )?;
             if let Some(v) = &m.visibility_filter {
                 writeln!(
