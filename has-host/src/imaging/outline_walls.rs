@@ -148,6 +148,8 @@ mod tests {
             ]),
             height_m: 8.0,
             samples: 0,
+            yard: Default::default(),
+            yard_cell_m: CELL,
         }
     }
 
