@@ -88,7 +88,6 @@
 //! touch; where the terrain is not known nothing is added. Units: metres, world frame; z up.
 
 use std::collections::{BTreeMap, BTreeSet};
-
 use std::f32::consts::FRAC_1_SQRT_2;
 
 use glam::{Vec2, Vec3};

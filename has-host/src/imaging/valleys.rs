@@ -43,7 +43,7 @@ use std::collections::{BTreeMap, BTreeSet};
 use glam::{Vec2, Vec3};
 
 use super::surface::TEST_NORMAL_SUPPORT_FRACTION;
-use super::wall_columns::{WallColumns, WALL_MAX_TILT_DEG};
+use super::wall_columns::{neighbours, WallColumns, WALL_MAX_TILT_DEG};
 
 /// Smallest angle between a roof sample's normal and the vertical at which its fall line is
 /// walked, degrees: the normals err by several degrees (surface module docs), so a flatter
@@ -111,10 +111,8 @@ pub fn valleys(
         }
         let fall = tilt.tan();
         // The slope imaged up the fall line.
-        let (kx, ky) = key(p.truncate() - down * up);
         let plane = p.z + up * fall;
-        let seen = (-1..=1)
-            .flat_map(|dx| (-1..=1).map(move |dy| (kx + dx, ky + dy)))
+        let seen = neighbours(key(p.truncate() - down * up))
             .filter_map(|k| cols.get(&k))
             .flatten()
             .any(|&h| (h - plane).abs() <= cell_m);

@@ -118,7 +118,7 @@ impl WallColumns {
 }
 
 /// A lattice column and its eight neighbours.
-fn neighbours((x, y): (i64, i64)) -> impl Iterator<Item = (i64, i64)> {
+pub(super) fn neighbours((x, y): (i64, i64)) -> impl Iterator<Item = (i64, i64)> {
     (-1..=1).flat_map(move |dx| (-1..=1).map(move |dy| (x + dx, y + dy)))
 }
 
