@@ -34,9 +34,23 @@
 //! otherwise the normal is the rim of a vertically smeared slab rather than a slope, and its fall
 //! line extrapolates nothing.
 //!
-//! At a meeting the slope is continued with the sample's normal down to the face, and the face
-//! from its lowest sample down to the slope with a horizontal normal looking back along the walk.
-//! Only the mesh uses them; the fused cloud is unchanged. Units: metres, world frame; z up.
+//! What the walk meets is the met column's lowest sample, read with its normal:
+//! - a face (the normal within [`super::wall_columns::WALL_MAX_TILT_DEG`] of the horizontal), or
+//!   the top of one — a roof sloping away along the walk, like the tooth before a sawtooth's
+//!   valley, whose riser drops from its top edge: the slope is continued with the sample's
+//!   normal down to the face, and the face from its lowest sample down to the slope with a
+//!   horizontal normal looking back along the walk;
+//! - a roof that reaches back toward the walker — flat (less than [`MIN_SLOPE_DEG`] from the
+//!   vertical, its direction undecided) or sloping back toward it: that roof, continued back
+//!   along the walk, is over the gap too, so the two slopes meet where their planes cross (a
+//!   V valley), and both are continued to that line; where the planes do not cross between the
+//!   walker and the met column, above the terrain, the walker lies under the roof it met — a
+//!   sample at the foot of a riser whose normal, fitted across the corner, tilts away from it
+//!   (the fresh site_71's shallow sawtooth: 11° slopes fitted at 30–50°) — and the walk ran under
+//!   an unimaged stretch of that roof into the building: nothing is added.
+//!
+//! Only the mesh uses the added samples; the fused cloud is unchanged. Units: metres, world
+//! frame; z up.
 
 use std::collections::{BTreeMap, BTreeSet};
 
@@ -75,8 +89,15 @@ pub fn valleys(
     }
     let key = |q: Vec2| ((q.x / cell_m).floor() as i64, (q.y / cell_m).floor() as i64);
     let mut cols: BTreeMap<(i64, i64), Vec<f32>> = BTreeMap::new();
-    for p in points.iter().filter(|p| p.is_finite()) {
-        cols.entry(key(p.truncate())).or_default().push(p.z);
+    // Each column's lowest sample: what a walk meets there.
+    let mut lowest: BTreeMap<(i64, i64), usize> = BTreeMap::new();
+    for (j, p) in points.iter().enumerate().filter(|(_, p)| p.is_finite()) {
+        let k = key(p.truncate());
+        cols.entry(k).or_default().push(p.z);
+        let l = lowest.entry(k).or_insert(j);
+        if p.z < points[*l].z {
+            *l = j;
+        }
     }
     let max_tilt = (90.0 - WALL_MAX_TILT_DEG).to_radians();
     let min_tilt = MIN_SLOPE_DEG.to_radians();
@@ -132,34 +153,56 @@ pub fn valleys(
                 if h.iter().any(|&h| (h - z).abs() <= cell_m || h < z - cell_m) {
                     break;
                 }
-                let low = h.iter().copied().fold(f32::INFINITY, f32::min);
-                if low - z <= rise_max && t > 1.5 * cell_m {
-                    met = Some((t, low));
+                let j = lowest[&key(q)];
+                if points[j].z - z <= rise_max && t > 1.5 * cell_m {
+                    met = Some((t, j));
                 }
                 break;
             }
             t += cell_m;
         }
-        let Some((t_met, low)) = met else {
+        let Some((t_met, j)) = met else {
             continue;
         };
         let w = weights.get(i).copied().unwrap_or(1.0);
+        let (low, m) = (points[j], normals.get(j).copied().unwrap_or(Vec3::X));
+        let m_tilt = m.z.clamp(-1.0, 1.0).acos();
+        let m_down = Vec2::new(m.x, m.y).dot(down);
+        // Where the slope ends along the walk; then the roof met continued back to that line
+        // (`Some`: the height at 0 and the rise per metre along the walk), or the face.
+        let (t_end, roof) =
+            if m.is_finite() && m_tilt <= max_tilt && (m_tilt < min_tilt || m_down < 0.0) {
+                // A roof met, flat or sloping back toward the walker: the slopes meet where
+                // their planes cross, or the walk ran under that roof (module docs).
+                let rise = -m_down / m.z;
+                let z0 = low.z - (p.truncate() - low.truncate()).dot(Vec2::new(m.x, m.y)) / m.z;
+                let t_v = (p.z - z0) / (fall + rise);
+                if !(t_v > 0.0 && t_v < t_met) || p.z - t_v * fall < ground {
+                    continue;
+                }
+                (t_v, Some((z0, rise)))
+            } else {
+                (t_met, None)
+            };
+        let at = |s: f32| p.truncate() + down * s;
         let mut s = cell_m;
-        while s < t_met {
-            push(
-                &mut out,
-                (p.truncate() + down * s).extend(p.z - s * fall),
-                n,
-                w,
-            );
+        while s < t_end {
+            push(&mut out, at(s).extend(p.z - s * fall), n, w);
             s += cell_m;
         }
-        let foot = p.truncate() + down * t_met;
-        let face = (-down).extend(0.0);
-        let mut z = p.z - t_met * fall;
-        while z < low - 0.5 * cell_m {
-            push(&mut out, foot.extend(z), face, w);
-            z += cell_m;
+        if let Some((z0, rise)) = roof {
+            let mut s = t_end;
+            while s < t_met - 0.5 * cell_m {
+                push(&mut out, at(s).extend(z0 + s * rise), m, w);
+                s += cell_m;
+            }
+        } else {
+            let face = (-down).extend(0.0);
+            let mut z = p.z - t_met * fall;
+            while z < low.z - 0.5 * cell_m {
+                push(&mut out, at(t_met).extend(z), face, w);
+                z += cell_m;
+            }
         }
         out.columns += 1;
     }
@@ -258,6 +301,69 @@ mod tests {
             if m.abs_diff_eq(Vec3::Y, 1e-6) {
                 assert!(q.y < 0.5, "{q}");
             }
+        }
+    }
+
+    #[test]
+    fn two_slopes_falling_toward_each_other_meet_where_their_planes_cross() {
+        // A V valley at y = 0, z = 8: this tooth's slope (y > 0), imaged from 2.25 m up, and a
+        // mirrored slope (y < 0) facing back toward it, imaged from 1.25 m up.
+        let (mut p, mut n) = (Vec::new(), Vec::new());
+        let mut s = (Vec::new(), Vec::new());
+        let ys: Vec<f32> = (0..6).map(|k| 2.25 + CELL * k as f32).collect();
+        rows(&ys, tooth_height, slope_normal(), &mut s);
+        let mirrored = slope_normal() * Vec3::new(1.0, -1.0, 1.0);
+        let ys: Vec<f32> = (0..6).map(|k| -1.25 - CELL * k as f32).collect();
+        rows(&ys, |y| tooth_height(-y), mirrored, &mut s);
+        p.extend(s.0);
+        n.extend(s.1);
+        let v = run(&p, &n);
+        assert!(v.points.len() >= 20, "{} samples", v.points.len());
+        // Distance to the slope on the sample's side of the valley.
+        let off_v = |q: Vec3| ((q.z - tooth_height(q.y.abs())) * slope_normal().z).abs();
+        for q in &v.points {
+            assert!(off_v(*q) < 1e-3, "{q} is {} m off the slopes", off_v(*q));
+        }
+        // Both slopes reach down to the valley's line.
+        for side in [1.0, -1.0] {
+            let lowest = v
+                .points
+                .iter()
+                .filter(|q| q.y * side >= 0.0)
+                .map(|q| q.z)
+                .fold(f32::INFINITY, f32::min);
+            assert!(
+                lowest < 8.0 + CELL,
+                "side {side}: lowest added sample at {lowest} m"
+            );
+        }
+    }
+
+    #[test]
+    fn a_walk_under_a_roof_reaching_back_toward_it_adds_nothing() {
+        // At the foot of a riser the normal fitted across the corner tilts away from the riser
+        // (35° on an 11° sawtooth): its fall line runs under the next stretch of roof, imaged
+        // only 3.5 m on at 8.5 m, flat or sloping back down toward the walker.
+        for back_deg in [0.0_f32, 11.0] {
+            let mut s = (Vec::new(), Vec::new());
+            let steep = Vec3::new(0.0, -35f32.to_radians().sin(), 35f32.to_radians().cos());
+            let ys: Vec<f32> = (0..4).map(|k| 2.25 + CELL * k as f32).collect();
+            rows(
+                &ys,
+                |y| 7.5 + (y - 2.25) * 35f32.to_radians().tan(),
+                steep,
+                &mut s,
+            );
+            let (sin, cos) = back_deg.to_radians().sin_cos();
+            let ys: Vec<f32> = (0..4).map(|k| -1.25 - CELL * k as f32).collect();
+            let roof = Vec3::new(0.0, sin, cos);
+            rows(&ys, |y| 8.5 - (y + 1.25) * sin / cos, roof, &mut s);
+            let v = run(&s.0, &s.1);
+            assert!(
+                v.points.is_empty(),
+                "{back_deg}°: {} samples",
+                v.points.len()
+            );
         }
     }
 
