@@ -385,6 +385,20 @@ pub fn sample_triangles(
     density_per_m2: f64,
     seed: u64,
 ) -> Result<Vec<Vec3>, GeometryError> {
+    sample_triangles_oriented(triangles, density_per_m2, seed).map(|(points, _)| points)
+}
+
+/// [`sample_triangles`] with each sample's unit normal, its triangle's (right-handed winding:
+/// outward on the scene's solids; zero for a degenerate triangle). The points are those of
+/// [`sample_triangles`] for the same arguments.
+///
+/// # Errors
+/// As [`sample_triangles`].
+pub fn sample_triangles_oriented(
+    triangles: &[[Vec3; 3]],
+    density_per_m2: f64,
+    seed: u64,
+) -> Result<(Vec<Vec3>, Vec<Vec3>), GeometryError> {
     if !(density_per_m2.is_finite() && density_per_m2 > 0.0) {
         return Err(GeometryError::BadParameter {
             field: "density_per_m2",
@@ -412,22 +426,25 @@ pub fn sample_triangles(
         });
     }
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut out = Vec::with_capacity(expected as usize + triangles.len().min(1 << 20));
+    let capacity = expected as usize + triangles.len().min(1 << 20);
+    let (mut out, mut normals) = (Vec::with_capacity(capacity), Vec::with_capacity(capacity));
     for t in triangles {
         let a = triangle_area(t) as f64;
         let u: f64 = rng.random();
         let n = (a * density_per_m2 + u).floor() as usize;
         let e1 = t[1] - t[0];
         let e2 = t[2] - t[0];
+        let normal = e1.cross(e2).normalize_or_zero();
         for _ in 0..n {
             let r1: f32 = rng.random();
             let r2: f32 = rng.random();
             let s = r1.sqrt();
             // Barycentric (1 − s, s(1 − r2), s·r2) is uniform on the triangle.
             out.push(t[0] + e1 * (s * (1.0 - r2)) + e2 * (s * r2));
+            normals.push(normal);
         }
     }
-    Ok(out)
+    Ok((out, normals))
 }
 
 /// [`sample_triangles`] on an indexed mesh (`faces` index into `vertices`).
@@ -731,6 +748,10 @@ mod tests {
         assert!((q - 500).abs() < 78, "{q}");
         assert_eq!(p, sample_triangles(&tris, rho, 7).unwrap());
         assert_ne!(p, sample_triangles(&tris, rho, 8).unwrap());
+        // The oriented samples are the same points, each with its triangle's normal (+z here).
+        let (q, n) = sample_triangles_oriented(&tris, rho, 7).unwrap();
+        assert_eq!(q, p);
+        assert!(n.len() == p.len() && n.iter().all(|m| m.abs_diff_eq(Vec3::Z, 1e-6)));
     }
 
     #[test]

@@ -291,7 +291,7 @@ pub fn build_world(sc: &Scenario) -> Result<World, RunError> {
             n.z > -0.5
         })
         .collect();
-    let truth = crate::metrics::sample_triangles(
+    let (truth, truth_normals) = crate::metrics::sample_triangles_oriented(
         &truth_triangles,
         sc.imaging.truth_density_per_m2,
         sc.imaging.seed.wrapping_add(2),
@@ -300,6 +300,7 @@ pub fn build_world(sc: &Scenario) -> Result<World, RunError> {
         scene,
         scatterers: set,
         truth,
+        truth_normals,
         truth_triangles,
         is_ground,
         terrain,
@@ -842,7 +843,12 @@ pub fn observable_truth(sc: &Scenario, world: &World, plans: &[PairPlan]) -> Vec
     world
         .truth
         .par_iter()
-        .map(|&t| {
+        .zip(&world.truth_normals)
+        .map(|(&t, &n)| {
+            // Lifted off its face like a scatterer (`echo::visible_for`): a point rounded to
+            // just under its face would otherwise be hidden by it from a grazing look, and which
+            // points round under depends on the site's orientation.
+            let t = t + n * crate::scene::SURFACE_EPS_M;
             sensors.iter().any(|(bs, ap)| {
                 world.scene.visible(t, *bs) && ap.iter().any(|&v| world.scene.visible(t, v))
             })

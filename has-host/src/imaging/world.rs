@@ -15,6 +15,8 @@ pub struct World {
     pub scatterers: ScattererSet,
     /// Ground-truth points on the truth objects.
     pub truth: Vec<Vec3>,
+    /// Each truth point's unit normal, its triangle's (outward).
+    pub truth_normals: Vec<Vec3>,
     /// Triangles of the truth objects (for plots).
     pub truth_triangles: Vec<[Vec3; 3]>,
     /// Per object: is it ground.
