@@ -22,6 +22,7 @@ mod resources;
 mod run_dir;
 mod scene_cmd;
 mod suite_cmd;
+mod turn_cmd;
 
 /// Hybrid aperture sensing simulator.
 #[derive(Parser)]
@@ -68,6 +69,9 @@ enum Command {
     /// Reconstruct every site of the scenario suite (fixtures/suite/*.toml) and write one table
     /// (suite.json, suite.md) of cloud and mesh quality, observability, time and memory.
     Suite(suite_cmd::SuiteArgs),
+    /// Write a scenario turned about a vertical axis (everything placed in the plane, the
+    /// imaging region as a polygon), to check that results do not depend on the orientation.
+    Turn(turn_cmd::TurnArgs),
 }
 
 fn main() {
@@ -108,6 +112,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Localize(a) => localize_cmd::run(a),
         Command::Observability(a) => observability_cmd::run(a),
         Command::Suite(a) => suite_cmd::run(a),
+        Command::Turn(a) => turn_cmd::run(a),
     }
 }
 

@@ -18,6 +18,7 @@ pub mod channel;
 pub mod error;
 pub mod localize;
 pub mod scene;
+pub mod turn;
 
 use std::path::{Path, PathBuf};
 
