@@ -7,11 +7,12 @@
 //! cylinder centres, base-station positions and boresights, the terminals' tracks, the imaging
 //! region (its rectangle becomes a `region_polygon`, its bounding box the new
 //! `region_min`/`region_max`; a polygon turns vertex by vertex), the `[channel]` base station and
-//! the `[localize]` base station and track. Heights do not change. Two things cannot turn and are
-//! kept or refused:
-//! - a ground rectangle is axis-aligned in the file format: it stays as it is, and the turned
-//!   scenario is validated like any file (a turned region that leaves the ground is refused there,
-//!   the field and value named);
+//! the `[localize]` base station and track. Heights do not change. Three things cannot turn and
+//! are kept or refused:
+//! - a ground rectangle is axis-aligned in the file format: it stays as it is; where the grounds
+//!   covered every corner of the imaging region before the turn, a turned corner no ground covers
+//!   is an error naming the corner (the site would stand partly on no ground: enlarge the ground
+//!   or turn about the site's centre);
 //! - the `[channel]` UE rectangle is axis-aligned too: it becomes the turned rectangle's bounding
 //!   box, so the channel experiment draws other UEs (its result is not expected to turn with the
 //!   site);
@@ -123,22 +124,44 @@ impl Scenario {
             a.start = t.f32_3(a.start);
             a.end = t.f32_3(a.end);
         }
+        let grounds: Vec<([f32; 2], [f32; 2])> = s
+            .scene
+            .objects
+            .iter()
+            .filter_map(|o| match o {
+                ObjectSpec::Ground(g) => Some((g.min, g.max)),
+                _ => None,
+            })
+            .collect();
+        let on_ground = |v: &[f32; 2]| {
+            grounds
+                .iter()
+                .any(|(lo, hi)| (lo[0]..=hi[0]).contains(&v[0]) && (lo[1]..=hi[1]).contains(&v[1]))
+        };
         let im = &mut s.imaging;
-        let polygon: Vec<[f32; 2]> = match &im.region_polygon {
-            Some(p) => p.iter().map(|&v| t.f32_2(v)).collect(),
+        let corners: Vec<[f32; 2]> = match &im.region_polygon {
+            Some(p) => p.clone(),
             None => {
                 let (lo, hi) = (im.region_min, im.region_max);
-                [
+                vec![
                     [lo[0], lo[1]],
                     [hi[0], lo[1]],
                     [hi[0], hi[1]],
                     [lo[0], hi[1]],
                 ]
-                .into_iter()
-                .map(|v| t.f32_2(v))
-                .collect()
             }
         };
+        let polygon: Vec<[f32; 2]> = corners.iter().map(|&v| t.f32_2(v)).collect();
+        if corners.iter().all(on_ground) {
+            if let Some(v) = polygon.iter().find(|v| !on_ground(v)) {
+                return Err(invalid(
+                    "imaging.region (turned)",
+                    format!("corner {v:?}"),
+                    "on a ground rectangle as before the turn: enlarge the ground or turn about \
+                     the site's centre",
+                ));
+            }
+        }
         let (lo, hi) = polygon.iter().fold(
             (Vec2::splat(f32::INFINITY), Vec2::splat(f32::NEG_INFINITY)),
             |(lo, hi), v| (lo.min(Vec2::from(*v)), hi.max(Vec2::from(*v))),
@@ -287,6 +310,18 @@ mod tests {
             e.contains(&format!("scene.objects[{i}]")) && e.contains("kiosk.obj"),
             "{e}"
         );
+    }
+
+    #[test]
+    fn a_turn_that_moves_the_region_off_its_ground_is_refused_naming_the_corner() {
+        // factory_site's ground is ±100 m; turned 45° about (90, 0) the region reaches y ≈ −115.
+        let s = fixture("fixtures/suite/factory_site.toml");
+        let e = s
+            .turned(45.0, Vec2::new(90.0, 0.0))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("imaging.region") && e.contains("corner"), "{e}");
+        assert!(s.turned(45.0, Vec2::ZERO).is_ok());
     }
 
     #[test]
