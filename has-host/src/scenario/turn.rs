@@ -138,19 +138,8 @@ impl Scenario {
                 .iter()
                 .any(|(lo, hi)| (lo[0]..=hi[0]).contains(&v[0]) && (lo[1]..=hi[1]).contains(&v[1]))
         };
+        let corners = s.region_footprint();
         let im = &mut s.imaging;
-        let corners: Vec<[f32; 2]> = match &im.region_polygon {
-            Some(p) => p.clone(),
-            None => {
-                let (lo, hi) = (im.region_min, im.region_max);
-                vec![
-                    [lo[0], lo[1]],
-                    [hi[0], lo[1]],
-                    [hi[0], hi[1]],
-                    [lo[0], hi[1]],
-                ]
-            }
-        };
         let polygon: Vec<[f32; 2]> = corners.iter().map(|&v| t.f32_2(v)).collect();
         if corners.iter().all(on_ground) {
             if let Some(v) = polygon.iter().find(|v| !on_ground(v)) {
