@@ -45,7 +45,11 @@
 //! what the look meets lies more than a resolution cell away, another building's face looking
 //! back along it: a face is imaged from the side it looks to, so between two buildings the
 //! ground before it is open, where a hole in a roof has roof on its far side and a building's
-//! own far wall looks away. Without it a glass block's side 8–10 m across a passage from a
+//! own far wall looks away. A face is a wall sample with an open front, as below the walls: at
+//! a building's corner the normals fitted across its two faces point along one of them, and
+//! oriented toward the pair that imaged them they look back at the building's own roof with
+//! their wall's image in front of them (held-out site_48, quick: a 15 m wall 4.5 m inside a
+//! glass sawtooth block, opened that way). Without it a glass block's side 8–10 m across a passage from a
 //! block as tall (held-out district_51, quick) had no wall under its imaged roof edge — the
 //! other building, met first at its roof, closed every look — and held most of the mesh's error.
 //!
@@ -293,7 +297,8 @@ pub const EDGE_MIN_OPEN_DEG: f32 = 45.0;
 /// what a look meets first lies more than a resolution cell (two `front_m`) away and within a
 /// resolution cell past it, in its column or the next, stands a wall sample more than a
 /// resolution cell under the roof's height whose normal is within 45° of looking back
-/// ([`FACE_BACK_MIN_COS`]): another building's face across open ground (module docs).
+/// ([`FACE_BACK_MIN_COS`]) and whose front is open as a wall sample's is ([`wall_columns`]):
+/// another building's face across open ground (module docs).
 /// Arguments as [`wall_columns`]. Deterministic: columns in lattice order, samples top down.
 pub fn roof_edge_walls(
     points: &[Vec3],
@@ -337,10 +342,14 @@ pub fn roof_edge_walls(
         let i = (y - y0) as usize * nx + (x - x0) as usize;
         lowest[i] = h.iter().copied().fold(f32::INFINITY, f32::min);
     }
-    // Per column, its wall samples (height, horizontal normal).
+    // Per column, its faces: the wall samples with an open front (height, horizontal normal).
+    // A sample with its own wall's image in front of it is no face looking anywhere: at a
+    // building's corner the normals fitted across its two faces point along one of them, and
+    // oriented toward the pair that imaged them they "look back" at a roof from under it.
+    let fronts = Fronts::new(points, cell_m, front_m);
     let mut faces: BTreeMap<(i64, i64), Vec<(f32, Vec2)>> = BTreeMap::new();
     for (p, n) in points.iter().zip(normals) {
-        if p.is_finite() && n.z.abs() < min_nz {
+        if p.is_finite() && n.z.abs() < min_nz && fronts.open(*p, *n, &imaged) {
             faces
                 .entry(key(*p))
                 .or_default()
@@ -817,6 +826,47 @@ mod tests {
                 .zip(&c.normals)
                 .any(|(q, m)| street_side(q, m)),
             "a wall under the roof against the taller part"
+        );
+    }
+
+    #[test]
+    fn samples_looking_back_with_a_walls_image_in_front_of_them_are_no_face() {
+        // A roof 10 m high, and 8 m east of its edge a face looking back at it (facing −x,
+        // 0.5–11.5 m): the ground between is open, the roof's east side an edge.
+        let mut p = roof((0.25, 10.25), (0.25, 10.25), 10.0, |_| false);
+        let mut n = vec![Vec3::Z; p.len()];
+        let add = |p: &mut Vec<Vec3>, n: &mut Vec<Vec3>, x: f32, normal: Vec3| {
+            for k in 0..21 {
+                for j in 0..23 {
+                    p.push(Vec3::new(x, 0.25 + 0.5 * k as f32, 0.5 + 0.5 * j as f32));
+                    n.push(normal);
+                }
+            }
+        };
+        add(&mut p, &mut n, 18.6, Vec3::NEG_X);
+        let east = |c: &WallColumns| {
+            c.points
+                .iter()
+                .zip(&c.normals)
+                .filter(|(q, m)| {
+                    (q.x - 10.25).abs() < 0.3 && (3.5..7.0).contains(&q.y) && m.x > 0.7
+                })
+                .count()
+        };
+        let walls = |p: &[Vec3], n: &[Vec3]| {
+            roof_edge_walls(p, n, &vec![0.7; p.len()], 0.5, 2.0, |_| Some(0.5), |_| true)
+        };
+        // (Away from the corners, which look past the face's ends.)
+        assert!(east(&walls(&p, &n)) >= 7 * 18);
+        // The same samples with a wall's image 2 m in front of them, at their heights (normals
+        // along it): they are part of an image seen along its face — at a building's corner the
+        // normals fitted across its two faces point along one of them — not a face across open
+        // ground. The look meets that image first, more than a resolution cell away.
+        add(&mut p, &mut n, 16.6, Vec3::Y);
+        assert_eq!(
+            east(&walls(&p, &n)),
+            0,
+            "a wall's image in front opened the edge"
         );
     }
 
