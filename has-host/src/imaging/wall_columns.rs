@@ -45,13 +45,14 @@
 //! what the look meets lies more than a resolution cell away, another building's face looking
 //! back along it: a face is imaged from the side it looks to, so between two buildings the
 //! ground before it is open, where a hole in a roof has roof on its far side and a building's
-//! own far wall looks away. A face is a wall sample with an open front, as below the walls: at
-//! a building's corner the normals fitted across its two faces point along one of them, and
-//! oriented toward the pair that imaged them they look back at the building's own roof with
-//! their wall's image in front of them (held-out site_48, quick: a 15 m wall 4.5 m inside a
-//! glass sawtooth block, opened that way). Without it a glass block's side 8–10 m across a passage from a
+//! own far wall looks away. Without it a glass block's side 8–10 m across a passage from a
 //! block as tall (held-out district_51, quick) had no wall under its imaged roof edge — the
 //! other building, met first at its roof, closed every look — and held most of the mesh's error.
+//! A face is a wall sample with an open front, as below the walls: at a building's corner the
+//! normals fitted across its two faces point along one of them, and oriented toward the pair
+//! that imaged them they look back at the building's own roof with their wall's image in front
+//! of them (held-out site_48, quick: a 15 m wall 4.5 m inside a glass sawtooth block, opened
+//! that way).
 //!
 //! **Beyond the imaging region nothing was imaged**, so nothing is known to be open there: a
 //! wall's front and a roof's open sector count only where the region reaches two `front_m` past
