@@ -19,7 +19,7 @@
 //!    between the samples (on a 1.5 m lattice at 400 MHz a wall half a spacing from the nearest
 //!    centre can keep −15 dB of its power, and the mask lost surfaces the fine pass would have
 //!    detected). The coarse grid costs (fine / coarse voxel)³ less
-//!    per frame than the fine one. It is turned to the region's footprint ([`CoarseFrame`]: a
+//!    per frame than the fine one. It is turned to the region's footprint (`CoarseFrame`: a
 //!    `region_polygon` askew to the world axes is covered by a grid of its own size, not by its
 //!    axis-aligned box), and of it only the columns the detection reads are imaged (a
 //!    non-rectangular footprint). On the quick factory site turned by 37° this halved the coarse

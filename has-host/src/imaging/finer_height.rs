@@ -20,7 +20,7 @@
 //! - `q`'s pairs resolve `p`'s height from `q`'s, `|z_p − z_q| > e(q)` (so `e(q) < e(p)/2`),
 //! - and `q` lies on a surface that crosses the vertical — its normal (PCA over the fused points
 //!   within `normal_radius_m` of it, the run's support distance, at least [`NORMAL_NEIGHBOURS`]
-//!   of them: the mesher's rule, [`crate::imaging::surface`]) within 45° of vertical,
+//!   of them: the mesher's rule, [`crate::imaging::surface()`]) within 45° of vertical,
 //!   `|n_z| > cos 45°` — a roof, not a wall: a wall contains the column, and a coarse pair's
 //!   point on it is a sample of the wall, not a displaced copy of `q`. Over 16 neighbours, as
 //!   until the nineteenth session, the default preset's roof normals were mostly noise and the

@@ -60,10 +60,11 @@
 //! cell inside the building (held-out site_37, quick: the mesh's false surface 3.1 %). An edge
 //! column with an edge column farther out on both sides of it along its edge (within `front_m`;
 //! farther out by more than a lattice cell and at most a resolution cell, its top within
-//! `front_m`) stands its wall on the line between them ([`notch_depth`]). Dropping such columns
+//! `front_m`) stands its wall on the line between them (`notch_depth`). Dropping such columns
 //! instead left the wall missing across the notch, and the mesh bulged out through the gap
 //! (site_11: a 3 m stretch of a glass sawtooth block's wall). A recess wider than a resolution
-//! cell has no such neighbours in its middle and keeps its wall.//!
+//! cell has no such neighbours in its middle and keeps its wall.
+//!
 //! **Beyond the imaging region nothing was imaged**, so nothing is known to be open there: a
 //! wall's front and a roof's open sector count only where the region reaches two `front_m` past
 //! the sample (the street in front of a face). A region drawn through a building otherwise stood
@@ -311,7 +312,7 @@ pub const EDGE_MIN_OPEN_DEG: f32 = 45.0;
 /// ([`FACE_BACK_MIN_COS`]) and whose front is open as a wall sample's is ([`wall_columns`]):
 /// another building's face across open ground (module docs).
 /// An edge column in a notch of its rim's image stands its wall on the rim's line
-/// ([`notch_depth`]).
+/// (`notch_depth`).
 /// Arguments as [`wall_columns`]. Deterministic: columns in lattice order, samples top down.
 pub fn roof_edge_walls(
     points: &[Vec3],
