@@ -52,7 +52,12 @@
 //! normals fitted across its two faces point along one of them, and oriented toward the pair
 //! that imaged them they look back at the building's own roof with their wall's image in front
 //! of them (held-out site_48, quick: a 15 m wall 4.5 m inside a glass sawtooth block, opened
-//! that way).
+//! that way). And the open ground in front of a face stands under the sky: its street, from
+//! `front_m` to two `front_m` ahead, holds nothing from `front_m` above the face up to the look's
+//! height. A building's roof imaged in parts can hold, under a far part, samples of its own
+//! wall whose normals point back inside; a look from where the near part ends crossed the
+//! unimaged stretch, met the far part and took them for another building's face (held-out
+//! cyl_94, quick: walls 6 m inside a sawtooth block).
 //!
 //! **A notch in a roof's image is not the wall's line.** A roof is detected in part, and a
 //! stretch of its rim narrower than a resolution cell can go undetected while the rim on both
@@ -172,6 +177,7 @@ fn cell_of(p: Vec3, cell_m: f32) -> (i64, i64, i64) {
 pub(super) struct Fronts {
     occupied: HashSet<(i64, i64, i64)>,
     cell_m: f32,
+    front_m: f32,
     steps: i64,
 }
 
@@ -185,6 +191,7 @@ impl Fronts {
                 .map(|&p| cell_of(p, cell_m))
                 .collect(),
             cell_m,
+            front_m,
             steps: (front_m / cell_m).ceil() as i64,
         }
     }
@@ -200,6 +207,22 @@ impl Fronts {
                 let dz = if j <= steps { 1 } else { steps };
                 (-dz..=dz).all(|dz| !self.occupied.contains(&(q.0, q.1, q.2 + dz)))
             })
+    }
+
+    /// Whether the street in front of a face at `p` facing `n` (horizontal), from `front_m` to
+    /// two `front_m` ahead, holds nothing of the cloud from `front_m` above the face up to `z`:
+    /// open ground in front of a face stands under the sky.
+    pub(super) fn open_overhead(&self, p: Vec3, n: Vec2, z: f32) -> bool {
+        let (cell, steps) = (self.cell_m, self.steps);
+        let ahead = n.extend(0.0).normalize_or_zero();
+        let (lo, hi) = (
+            cell_of(p + Vec3::Z * self.front_m, cell).2 + 1,
+            (z / cell).floor() as i64,
+        );
+        (steps + 1..=2 * steps).all(|j| {
+            let q = cell_of(p + ahead * (j as f32 * cell), cell);
+            (lo..=hi).all(|kz| !self.occupied.contains(&(q.0, q.1, kz)))
+        })
     }
 }
 
@@ -309,8 +332,9 @@ pub const EDGE_MIN_OPEN_DEG: f32 = 45.0;
 /// what a look meets first lies more than a resolution cell (two `front_m`) away and within a
 /// resolution cell past it, in its column or the next, stands a wall sample more than a
 /// resolution cell under the roof's height whose normal is within 45° of looking back
-/// ([`FACE_BACK_MIN_COS`]) and whose front is open as a wall sample's is ([`wall_columns`]):
-/// another building's face across open ground (module docs).
+/// ([`FACE_BACK_MIN_COS`]), whose front is open as a wall sample's is ([`wall_columns`]) and
+/// whose street holds nothing from `front_m` above it up to the look's height: another
+/// building's face across open ground (module docs).
 /// An edge column in a notch of its rim's image stands its wall on the rim's line
 /// (`notch_depth`).
 /// Arguments as [`wall_columns`]. Deterministic: columns in lattice order, samples top down.
@@ -361,13 +385,13 @@ pub fn roof_edge_walls(
     // building's corner the normals fitted across its two faces point along one of them, and
     // oriented toward the pair that imaged them they "look back" at a roof from under it.
     let fronts = Fronts::new(points, cell_m, front_m);
-    let mut faces: BTreeMap<(i64, i64), Vec<(f32, Vec2)>> = BTreeMap::new();
+    let mut faces: BTreeMap<(i64, i64), Vec<(Vec3, Vec2)>> = BTreeMap::new();
     for (p, n) in points.iter().zip(normals) {
         if p.is_finite() && n.z.abs() < min_nz && fronts.open(*p, *n, &imaged) {
             faces
                 .entry(key(*p))
                 .or_default()
-                .push((p.z, n.truncate().normalize_or_zero()));
+                .push((*p, n.truncate().normalize_or_zero()));
         }
     }
     let facing_back = FACE_BACK_MIN_COS;
@@ -394,8 +418,10 @@ pub fn roof_edge_walls(
                 // for a resolution cell.
                 let looks_back = |c: &(i64, i64)| {
                     faces.get(c).is_some_and(|f| {
-                        f.iter().any(|&(h, n)| {
-                            h < z - 2.0 * front_m && n.dot(u.truncate()) <= -facing_back
+                        f.iter().any(|&(at, n)| {
+                            at.z < z - 2.0 * front_m
+                                && n.dot(u.truncate()) <= -facing_back
+                                && fronts.open_overhead(at, n, z)
                         })
                     })
                 };
@@ -936,6 +962,43 @@ mod tests {
             0,
             "a wall's image in front opened the edge"
         );
+    }
+
+    #[test]
+    fn a_face_under_a_roof_is_no_face_looking_back_across_open_ground() {
+        // One building 20 m long whose roof (10 m) was imaged in two parts, x 0–10.5 m and
+        // 14.5–20.5 m, and under the far part a wall's image whose normals point back inside
+        // (facing −x, 0.5–7.5 m high, at x = 18.6 m). The look east from where the first part
+        // ends crosses the unimaged stretch, meets the far part more than a resolution cell
+        // away and finds those samples; but the street in front of a face across open ground
+        // is open up to the roof, and theirs is under the far part: no edge there.
+        let mut p = roof((0.25, 10.25), (0.25, 10.25), 10.0, |_| false);
+        p.extend(roof((14.75, 20.25), (0.25, 10.25), 10.0, |_| false));
+        let mut n = vec![Vec3::Z; p.len()];
+        for k in 0..21 {
+            for j in 0..15 {
+                p.push(Vec3::new(18.6, 0.25 + 0.5 * k as f32, 0.5 + 0.5 * j as f32));
+                n.push(Vec3::NEG_X);
+            }
+        }
+        let c = roof_edge_walls(
+            &p,
+            &n,
+            &vec![0.7; p.len()],
+            0.5,
+            2.0,
+            |_| Some(0.5),
+            |_| true,
+        );
+        let inside = c
+            .points
+            .iter()
+            .zip(&c.normals)
+            .filter(|(q, m)| (q.x - 10.25).abs() < 0.3 && (2.0..8.5).contains(&q.y) && m.x > 0.7)
+            .count();
+        assert_eq!(inside, 0, "a wall where the roof's first part ends");
+        // The building's outer east edge still stands on its wall.
+        assert!(c.points.iter().any(|q| q.x > 20.0));
     }
 
     #[test]
