@@ -781,6 +781,17 @@ mod tests {
         p
     }
 
+    /// Appends a face in the plane x = `x` over y 0–10.5 m, `rows` rows every 0.5 m from 0.5 m
+    /// up, with `normal`.
+    fn face(p: &mut Vec<Vec3>, n: &mut Vec<Vec3>, x: f32, rows: usize, normal: Vec3) {
+        for k in 0..21 {
+            for j in 0..rows {
+                p.push(Vec3::new(x, 0.25 + 0.5 * k as f32, 0.5 + 0.5 * j as f32));
+                n.push(normal);
+            }
+        }
+    }
+
     fn edges(p: &[Vec3], floor: Option<f32>) -> WallColumns {
         let n = vec![Vec3::Z; p.len()];
         roof_edge_walls(p, &n, &vec![0.7; p.len()], 0.5, 2.0, |_| floor, |_| true)
@@ -881,12 +892,7 @@ mod tests {
         let mut p = roof((0.25, 10.25), (0.25, 10.25), 10.0, |_| false);
         p.extend(roof((14.75, 24.75), (0.25, 10.25), 12.0, |_| false));
         let mut n = vec![Vec3::Z; p.len()];
-        for k in 0..21 {
-            for j in 0..23 {
-                p.push(Vec3::new(14.6, 0.25 + 0.5 * k as f32, 0.5 + 0.5 * j as f32));
-                n.push(Vec3::NEG_X);
-            }
-        }
+        face(&mut p, &mut n, 14.6, 23, Vec3::NEG_X);
         let walls = |p: &[Vec3], n: &[Vec3]| {
             roof_edge_walls(p, n, &vec![0.7; p.len()], 0.5, 2.0, |_| Some(0.5), |_| true)
         };
@@ -929,15 +935,7 @@ mod tests {
         // 0.5–11.5 m): the ground between is open, the roof's east side an edge.
         let mut p = roof((0.25, 10.25), (0.25, 10.25), 10.0, |_| false);
         let mut n = vec![Vec3::Z; p.len()];
-        let add = |p: &mut Vec<Vec3>, n: &mut Vec<Vec3>, x: f32, normal: Vec3| {
-            for k in 0..21 {
-                for j in 0..23 {
-                    p.push(Vec3::new(x, 0.25 + 0.5 * k as f32, 0.5 + 0.5 * j as f32));
-                    n.push(normal);
-                }
-            }
-        };
-        add(&mut p, &mut n, 18.6, Vec3::NEG_X);
+        face(&mut p, &mut n, 18.6, 23, Vec3::NEG_X);
         let east = |c: &WallColumns| {
             c.points
                 .iter()
@@ -956,7 +954,7 @@ mod tests {
         // along it): they are part of an image seen along its face — at a building's corner the
         // normals fitted across its two faces point along one of them — not a face across open
         // ground. The look meets that image first, more than a resolution cell away.
-        add(&mut p, &mut n, 16.6, Vec3::Y);
+        face(&mut p, &mut n, 16.6, 23, Vec3::Y);
         assert_eq!(
             east(&walls(&p, &n)),
             0,
@@ -975,12 +973,7 @@ mod tests {
         let mut p = roof((0.25, 10.25), (0.25, 10.25), 10.0, |_| false);
         p.extend(roof((14.75, 20.25), (0.25, 10.25), 10.0, |_| false));
         let mut n = vec![Vec3::Z; p.len()];
-        for k in 0..21 {
-            for j in 0..15 {
-                p.push(Vec3::new(18.6, 0.25 + 0.5 * k as f32, 0.5 + 0.5 * j as f32));
-                n.push(Vec3::NEG_X);
-            }
-        }
+        face(&mut p, &mut n, 18.6, 15, Vec3::NEG_X);
         let c = roof_edge_walls(
             &p,
             &n,
