@@ -380,7 +380,7 @@ pub fn roof_edge_walls(
         let i = (y - y0) as usize * nx + (x - x0) as usize;
         lowest[i] = h.iter().copied().fold(f32::INFINITY, f32::min);
     }
-    // Per column, its faces: the wall samples with an open front (height, horizontal normal).
+    // Per column, its faces: the wall samples with an open front (position, horizontal normal).
     // A sample with its own wall's image in front of it is no face looking anywhere: at a
     // building's corner the normals fitted across its two faces point along one of them, and
     // oriented toward the pair that imaged them they "look back" at a roof from under it.
