@@ -7,6 +7,7 @@ pub mod coarse_range;
 pub mod confirmation;
 pub mod detection;
 pub mod driver;
+pub mod facing;
 pub mod finer_height;
 pub mod hidden_roofs;
 pub mod outline_walls;

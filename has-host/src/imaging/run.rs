@@ -29,6 +29,7 @@ use glam::Vec3;
 
 use super::confirmation::{confirmed, PairSight};
 use super::driver::{image_pair, survey_pair, ImagingError, PairImage, PairPlan, RunOptions};
+use super::facing::own_surface_normals;
 use super::finer_height::placed_finer;
 use super::terrain_echo::terrain_echoes;
 use super::world::{Terrain, World};
@@ -692,12 +693,28 @@ pub fn confirm(
             }
         })
         .collect();
+    // Which way each point's own surface faces (none for a patch smaller than a resolution
+    // cell): a pair behind it receives nothing from it. The fused points are finite voxel
+    // positions and every point has a pair unless more than 64 pairs were imaged; then no point
+    // has a facing, as before.
+    let support = support_distance_m(sc, plans);
+    // Two fused points lie on one patch when they are lattice neighbours (diagonals included);
+    // a patch is a surface of its own when it spans the coarsest resolution cell.
+    let facing = own_surface_normals(
+        &fused.points,
+        &sensors_of(&observing_pairs(sc, plans, &fused)),
+        support,
+        1.01 * 3f32.sqrt() * sc.imaging.voxel_m,
+        2.0 * support,
+    )
+    .unwrap_or_else(|_| vec![None; fused.points.len()]);
     let keep = confirmed(
         &fused.points,
         &fused.pair_mask,
+        &facing,
         &sights,
         &world.terrain.scene,
-        support_distance_m(sc, plans),
+        support,
         need,
     );
     let unconfirmed = keep.iter().filter(|&&k| !k).count();

@@ -94,6 +94,8 @@ use std::time::Instant;
 
 use glam::{Vec2, Vec3};
 
+use super::facing::test_normals;
+pub use super::facing::{faces_a_pair, TEST_NORMAL_SUPPORT_FRACTION};
 use super::hidden_roofs::{hidden_roofs, standing_on, Footprint, RoofOptions};
 use super::outline_walls::outline_walls;
 use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult};
@@ -124,12 +126,6 @@ pub const CELL_PER_VOXEL: f32 = 0.5;
 
 /// Default density trim, fraction of the median vertex support density (module docs).
 pub const DEFAULT_TRIM_MEDIAN: f32 = 0.1;
-
-/// The neighbourhood of the normals the per-sample tests read ([`faces_a_pair`], the wall
-/// columns, the roof-edge walls), as a fraction of the support distance, with at least the 16
-/// nearest points (module docs): about a quarter of the coarsest resolution cell, 1 m on the
-/// suite's sites.
-pub const TEST_NORMAL_SUPPORT_FRACTION: f32 = 0.5;
 
 /// Settings of [`surface`].
 #[derive(Clone, Debug, PartialEq)]
@@ -328,14 +324,7 @@ pub fn surface(
     };
     let fit = estimate_normals_over(&points, neighbourhood, Orientation::SensorSets(&sensors))?;
     // Which way the surface through a sample faces, for the tests below (module docs).
-    let normals = estimate_normals_over(
-        &points,
-        Neighbourhood::Within {
-            radius_m: TEST_NORMAL_SUPPORT_FRACTION * support,
-            min: params.normal_k,
-        },
-        Orientation::SensorSets(&sensors),
-    )?;
+    let normals = test_normals(&points, &sensors, support, params.normal_k)?;
     let facing: Vec<bool> = points
         .iter()
         .zip(&normals)
@@ -449,41 +438,9 @@ pub fn surface(
     })
 }
 
-/// Whether a surface element at `point` with unit normal `normal` faces both ends — transmitter
-/// and receiver, `[tx, rx]` — of at least one of `pairs`: `n·(tx − p) > 0` and `n·(rx − p) > 0`,
-/// the condition for a Lambertian facet to echo from one to the other (module docs). A point no
-/// pair observed (`pairs` empty) is kept.
-pub fn faces_a_pair(point: Vec3, normal: Vec3, pairs: &[[Vec3; 2]]) -> bool {
-    pairs.is_empty()
-        || pairs
-            .iter()
-            .any(|[tx, rx]| normal.dot(*tx - point) > 0.0 && normal.dot(*rx - point) > 0.0)
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn a_roof_faces_a_uav_pair_but_not_a_vehicle_pair_below_it() {
-        let roof = Vec3::new(0.0, 0.0, 10.0);
-        let up = Vec3::Z;
-        let bs = Vec3::new(-45.0, -40.0, 20.0);
-        let uav = Vec3::new(0.0, -6.0, 40.0);
-        let vehicle = Vec3::new(-8.0, -27.0, 1.5);
-        assert!(faces_a_pair(roof, up, &[[uav, bs]]));
-        // The vehicle is below the roof: a roof facing up cannot echo to it, one facing down
-        // (what orienting toward the nearer sensor gives) cannot echo to the mast above it.
-        assert!(!faces_a_pair(roof, up, &[[vehicle, bs]]));
-        assert!(!faces_a_pair(roof, -up, &[[vehicle, bs]]));
-        // One facing pair is enough; an unobserved point is kept.
-        assert!(faces_a_pair(roof, up, &[[vehicle, bs], [uav, bs]]));
-        assert!(faces_a_pair(roof, up, &[]));
-        // A south wall faces the vehicle and the mast south of it.
-        let wall = Vec3::new(0.0, -12.0, 4.0);
-        assert!(faces_a_pair(wall, -Vec3::Y, &[[vehicle, bs]]));
-        assert!(!faces_a_pair(wall, Vec3::Y, &[[vehicle, bs]]));
-    }
 
     #[test]
     fn a_bad_trim_or_an_empty_cloud_is_an_error_naming_it() {

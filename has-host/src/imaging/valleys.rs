@@ -56,7 +56,7 @@ use std::collections::{BTreeMap, BTreeSet};
 
 use glam::{Vec2, Vec3};
 
-use super::surface::TEST_NORMAL_SUPPORT_FRACTION;
+use super::facing::TEST_NORMAL_SUPPORT_FRACTION;
 use super::wall_columns::{neighbours, WallColumns, WALL_MAX_TILT_DEG};
 
 /// Smallest angle between a roof sample's normal and the vertical at which its fall line is
