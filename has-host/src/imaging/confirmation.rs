@@ -12,7 +12,9 @@
 //! **The test.** Pair `j` *confirms* a fused point `p` when it kept `p` or detected a point
 //! within the support distance of `p` (half the coarsest resolution cell of the pairs,
 //! [`super::run::support_distance_m`]: the surface that gave `p` lies within it); `k(p)` pairs
-//! confirm it. A point that two pairs confirm is a *surface point* for the legs below. Pair `j`
+//! confirm it. A point that two pairs confirm, or that lies on a patch at least a resolution
+//! cell across in two directions (a surface of its own, [`super::facing`]: a false alarm is a
+//! blob of one cell), is a *surface point* for the legs below. Pair `j`
 //! *sees* `p` when `p` lies in front of its panel (`(p − rx)·n̂ > 0`, the array's half-space),
 //! and both legs — from the panel's centre and from the aperture's centre to `p` — reach `p`
 //! through the known terrain (its scene) and past the surface points: the segment, up to twice
@@ -21,8 +23,8 @@
 //! it in part) still stands between a pair and what lies behind it (the detected surfaces are
 //! the only buildings the operator knows; on a courtyard block, legs through the gaps of the
 //! wings' shells made 877 of the 923 points an earlier test removed look seen, all on the
-//! yard's walls). One pair's points block no leg: they are what the test questions most, a
-//! false-alarm patch would otherwise hide itself, and a vehicle's legs run low over open ground
+//! yard's walls). Other single-pair points block no leg: they are what the test questions most, a
+//! false-alarm blob would otherwise hide itself, and a vehicle's legs run low over open ground
 //! past other pairs' false alarms. Nor does a pair see `p` from behind its surface: a Lambertian
 //! facet echoes to a pair only when it faces both of the pair's ends ([`super::facing`]), so a
 //! pair with an end behind the surface through `p` (its normal over half the support distance,
@@ -143,13 +145,16 @@ fn count(
     let confirms = |p: Vec3, m: u64, k: usize| {
         kept_by(m, k) || sights[k].detections.is_some_and(|d| d.nearest(p).1 <= r2)
     };
-    // A point two pairs kept or confirm is not one pair's false alarm: the only kind of point
-    // that stands for a surface between a pair and another point.
+    // A point two pairs kept or confirm is not one pair's false alarm, nor is a point on a patch
+    // at least a resolution cell across (one with a facing): the kinds of point that stand for a
+    // surface between a pair and another point.
     let surface: Vec<bool> = points
         .par_iter()
         .zip(mask)
-        .map(|(&p, &m)| {
-            m.count_ones() > 1
+        .enumerate()
+        .map(|(i, (&p, &m))| {
+            facing.get(i).is_some_and(Option::is_some)
+                || m.count_ones() > 1
                 || (0..sights.len())
                     .filter(|&k| confirms(p, m, k))
                     .nth(1)
@@ -169,9 +174,9 @@ fn count(
     // distance (a point within ~0.97 of it from the line is found), from the sensor to twice
     // the support distance short of `p` — nearer than that, the leg meets `p`'s own surface
     // (whose points lie within the support distance of a leg that arrives at more than 30° to
-    // it; a grazing pair's silence says little anyway). One pair's points block nothing: a
-    // false-alarm patch would otherwise hide itself, and on open ground a vehicle's legs run
-    // low past other pairs' false alarms.
+    // it; a grazing pair's silence says little anyway). One pair's blob of less than a cell
+    // blocks nothing: a false alarm would otherwise hide itself, and on open ground a vehicle's
+    // legs run low past other pairs' false alarms.
     let near = NearCells::new(&walls, support_m);
     let walls = PointIndex::new("surface points", &walls).ok();
     let step = 0.5 * support_m;
@@ -444,10 +449,11 @@ mod tests {
     #[test]
     fn a_pair_behind_a_surface_does_not_deny_it_and_pairs_in_front_still_do() {
         // A wall x = 0 (8 × 6 m on a 0.5 m lattice) that pair 0, in front of it (+x), alone
-        // imaged; a cluster of three points in free air 10 m in front of it, pair 0's too.
-        // Pairs 1 and 2 look at both from behind the wall (−x): the wall is one pair's points,
-        // so it blocks none of their legs. Support distance 2 m: every wall point, corners too,
-        // has 16 points within it.
+        // imaged; a cluster of three points in free air 10 m in front of it and 20 m to
+        // its side (no leg to it crosses the wall), pair 0's too.
+        // Pairs 1 and 2 look at both from behind the wall (−x); a leg to a wall point stops
+        // twice the support distance (2 m) short of it, so nothing blocks it. The wall spans more
+        // than a cell (4 m) both ways: it has a surface of its own.
         let mut points: Vec<Vec3> = (0..16)
             .flat_map(|i| {
                 (0..12).map(move |k| Vec3::new(0.0, 0.5 * i as f32 - 4.0, 0.5 * k as f32))
@@ -455,9 +461,9 @@ mod tests {
             .collect();
         let wall = points.len();
         points.extend([
-            Vec3::new(10.0, 0.0, 3.0),
-            Vec3::new(10.0, 0.5, 3.0),
-            Vec3::new(10.0, 0.0, 3.5),
+            Vec3::new(10.0, 20.0, 3.0),
+            Vec3::new(10.0, 20.5, 3.0),
+            Vec3::new(10.0, 20.0, 3.5),
         ]);
         let mask = vec![1u64; points.len()];
         let front = (Vec3::new(50.0, 0.0, 20.0), Vec3::new(20.0, 0.0, 1.5));
@@ -489,6 +495,64 @@ mod tests {
         }
         let keep = confirmed(&points, &mask, &facing, &sights, &open_ground(), 2.0, 2);
         assert!(keep.iter().all(|&k| !k), "pairs in front of a wall deny it");
+    }
+
+    #[test]
+    fn a_wall_one_pair_imaged_hides_what_lies_behind_it_and_a_blob_does_not() {
+        // q (pair 0's, west of x = 5) lies behind a wall x = 5 (12 × 8 m, 0.5 m lattice) that
+        // pair 3 alone imaged; pairs 1 and 2 look at q from the east, their legs through the
+        // wall. Support distance 2 m: the wall is a patch of more than a cell (4 m) both ways.
+        let q = Vec3::new(0.0, 0.0, 3.0);
+        let mut points = vec![q];
+        points.extend((0..24).flat_map(|i| {
+            (0..16).map(move |k| Vec3::new(5.0, 0.5 * i as f32 - 6.0, 0.5 * k as f32))
+        }));
+        let mut mask = vec![1u64 << 3; points.len()];
+        mask[0] = 1;
+        let west = (Vec3::new(-50.0, 0.0, 20.0), Vec3::new(-10.0, 0.0, 1.5));
+        let wall_pair = (Vec3::new(50.0, 20.0, 20.0), Vec3::new(15.0, 10.0, 1.5));
+        let sights = [
+            sight(west.0, west.1, None),
+            sight(Vec3::new(50.0, 5.0, 20.0), Vec3::new(15.0, 5.0, 1.5), None),
+            sight(
+                Vec3::new(50.0, -5.0, 20.0),
+                Vec3::new(15.0, -5.0, 1.5),
+                None,
+            ),
+            sight(wall_pair.0, wall_pair.1, None),
+        ];
+        let mut observers = vec![vec![wall_pair.1, wall_pair.0]; points.len()];
+        observers[0] = vec![west.1, west.0];
+        let facing = own_surface_normals(&points, &observers, 2.0, 0.9, 4.0).unwrap();
+        assert!(facing[0].is_none() && facing[1..].iter().all(Option::is_some));
+        let with = tallies(&points, &mask, &facing, &sights, &open_ground(), 2.0);
+        assert_eq!(
+            with[0].denied, 0,
+            "legs through a wall one pair imaged reach q"
+        );
+        // Without the facing the wall is one pair's points, which block nothing.
+        let without = tallies(&points, &mask, &[], &sights, &open_ground(), 2.0);
+        assert_eq!(without[0].denied, 3);
+        // A blob of one cell where the wall was (a 3 × 3 × 3 block of lattice points) has no
+        // surface of its own and hides nothing.
+        let mut blob = vec![q];
+        blob.extend((0..27).map(|i| {
+            let (a, b, c) = ((i % 3) as f32, ((i / 3) % 3) as f32, (i / 9) as f32);
+            Vec3::new(5.0 + 0.5 * a, -0.5 + 0.5 * b, 3.0 + 0.5 * c)
+        }));
+        let blob_mask = [vec![1u64], vec![1u64 << 3; 27]].concat();
+        let blob_facing =
+            own_surface_normals(&blob, &observers[..blob.len()], 2.0, 0.9, 4.0).unwrap();
+        assert!(blob_facing.iter().all(Option::is_none));
+        let t = tallies(
+            &blob,
+            &blob_mask,
+            &blob_facing,
+            &sights,
+            &open_ground(),
+            2.0,
+        );
+        assert_eq!(t[0].denied, 3);
     }
 
     #[test]
