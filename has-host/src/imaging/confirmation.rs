@@ -34,10 +34,10 @@
 //! (held-out site_86, quick: a face that one pair imaged from its foot to its eave lost 1 042
 //! points to the pairs behind the building, and the cloud's √CD was 1.54 m against 0.59 m with
 //! the facing). A patch smaller than a resolution cell — one pair's false alarm is such a blob —
-//! has no surface of its own ([`super::facing`]) and is seen from every side, as before. A pair that sees `p` and does not confirm it *denies* it;
-//! `d(p)` pairs do. `p` is dropped when `d(p) ≥ need·k(p)` (`need` = `imaging.cross_pair_denials`).
-//! Since the surface points that block legs are fixed before any point is judged, one pass
-//! decides every point.
+//! has no surface of its own ([`super::facing`]) and is seen from every side, as before. A pair
+//! that sees `p` and does not confirm it *denies* it; `d(p)` pairs do. `p` is dropped when
+//! `d(p) ≥ need·k(p)` (`need` = `imaging.cross_pair_denials`). Since the surface points that
+//! block legs are fixed before any point is judged, one pass decides every point.
 //!
 //! **Why `need` denials per confirmation.** Each pair that sees a surface detects it with some
 //! probability `q`; each pair has a false alarm within the support distance of a given place

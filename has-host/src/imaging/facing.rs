@@ -5,11 +5,13 @@
 //! `n·(tx − p) > 0` and `n·(rx − p) > 0` ([`faces_a_pair`]). The mesher reads it to leave out
 //! samples no pair could have seen as facets (the smear of a neighbouring echo), and the
 //! cross-pair confirmation reads it to ask whether a pair's silence about a point says anything:
-//! a pair behind a surface receives nothing from it, so it does not deny it.
+//! a pair behind a surface receives nothing from it, so it does not deny it (and a surface one
+//! pair imaged stands between the pairs and what lies behind it, [`super::confirmation`]).
 //!
 //! The normals are PCA normals of the fused points over [`TEST_NORMAL_SUPPORT_FRACTION`] of the
 //! support distance (at least the 16 nearest points), oriented toward the sensors that observed
-//! each point ([`test_normals`]; why this neighbourhood: [`super::surface`](mod@super::surface)'s module docs).
+//! each point ([`test_normals`]; why this neighbourhood: the module docs of
+//! [`super::surface`](mod@super::surface)).
 //!
 //! **A surface of its own** ([`own_surface_normals`]): a false alarm is one resolution cell of
 //! one pair's image — clutter speckle, a sidelobe — a blob at most a cell across, whose PCA
@@ -17,8 +19,10 @@
 //! and away from every other. A surface the pairs imaged spans more. So a point has a facing only
 //! when its patch (the fused points joined through lattice neighbours) spreads in two directions
 //! at least as a disk one resolution cell across does (second principal spread ≥ a quarter of
-//! the cell). Measured at the default preset on office_pair: one pair's blobs of 14–40 points,
-//! 8–22 m from any building and 0.8–2 m across, would stand with a facing taken wherever 16
+//! the cell). The cell is the coarsest of the imaged pairs (twice the support distance): it
+//! bounds any pair's blob, the plate of a pair whose track resolves nothing across its panel's
+//! cell included. Measured at the default preset on office_pair: one pair's blobs of 14–40
+//! points, 8–22 m from any building and 0.8–2 m across, would stand with a facing taken wherever 16
 //! points lie within the support distance (cloud √CD 1.001 → 1.159 m); under this rule none has
 //! one. Patches of a true surface smaller than a cell have none either (district_75, quick: 165
 //! points in 5–28-point patches), and are judged as before.
@@ -34,8 +38,9 @@ use crate::mesh::normals::{covariance, estimate_normals_over, Neighbourhood, Ori
 
 /// The neighbourhood of the normals the per-sample tests read ([`faces_a_pair`], the wall
 /// columns, the roof-edge walls, the confirmation's facing), as a fraction of the support
-/// distance, with at least [`SURFACE_POINTS`] nearest points ([`super::surface`](mod@super::surface)'s module docs):
-/// about a quarter of the coarsest resolution cell, 1 m on the suite's sites.
+/// distance, with at least [`SURFACE_POINTS`] nearest points (the module docs of
+/// [`super::surface`](mod@super::surface)): about a quarter of the coarsest resolution cell, 1 m
+/// on the suite's sites.
 pub const TEST_NORMAL_SUPPORT_FRACTION: f32 = 0.5;
 
 /// Fewest points a normal is fitted to, the mesher's as well
