@@ -16,6 +16,7 @@ pub mod beam;
 pub mod bench;
 pub mod channel;
 pub mod channel_experiment;
+pub mod disjoint_sets;
 pub mod echo;
 pub mod html;
 pub mod io;

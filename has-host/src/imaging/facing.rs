@@ -32,6 +32,7 @@
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::disjoint_sets::DisjointSets;
 use crate::knn::{GeometryError, PointIndex};
 use crate::linalg::symmetric_eigen3;
 use crate::mesh::normals::{covariance, estimate_normals_over, Neighbourhood, Orientation};
@@ -110,25 +111,13 @@ pub fn own_surface_normals(
                 .collect()
         })
         .collect();
-    let mut parent: Vec<u32> = (0..points.len() as u32).collect();
-    fn find(parent: &mut [u32], mut a: u32) -> u32 {
-        while parent[a as usize] != a {
-            parent[a as usize] = parent[parent[a as usize] as usize];
-            a = parent[a as usize];
-        }
-        a
-    }
+    let mut sets = DisjointSets::new(points.len());
     for (i, js) in links.iter().enumerate() {
         for &j in js {
-            let (a, b) = (find(&mut parent, i as u32), find(&mut parent, j));
-            if a != b {
-                parent[a.max(b) as usize] = a.min(b);
-            }
+            sets.union(i as u32, j);
         }
     }
-    let roots: Vec<u32> = (0..points.len() as u32)
-        .map(|i| find(&mut parent, i))
-        .collect();
+    let roots: Vec<u32> = (0..points.len() as u32).map(|i| sets.find(i)).collect();
     let mut members: std::collections::BTreeMap<u32, Vec<Vec3>> = Default::default();
     for (&r, &p) in roots.iter().zip(points) {
         members.entry(r).or_default().push(p);

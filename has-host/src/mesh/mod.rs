@@ -22,6 +22,7 @@ use std::collections::HashMap;
 use glam::Vec3;
 use rayon::prelude::*;
 
+use crate::disjoint_sets::DisjointSets;
 use crate::knn::GeometryError;
 use crate::metrics;
 
@@ -210,29 +211,17 @@ impl TriMesh {
     /// Connected components of the faces (two faces are connected when they share a vertex):
     /// one label per face, labels 0.. in order of first appearance.
     pub fn face_components(&self) -> Vec<u32> {
-        fn find(parent: &mut [u32], mut a: u32) -> u32 {
-            while parent[a as usize] != a {
-                let g = parent[parent[a as usize] as usize];
-                parent[a as usize] = g;
-                a = g;
-            }
-            a
-        }
-        let mut parent: Vec<u32> = (0..self.vertices.len() as u32).collect();
+        let mut sets = DisjointSets::new(self.vertices.len());
         for f in &self.faces {
-            let a = find(&mut parent, f[0]);
             for &v in &f[1..] {
-                let b = find(&mut parent, v);
-                if a != b {
-                    parent[b as usize] = a;
-                }
+                sets.union(f[0], v);
             }
         }
         let mut label = HashMap::new();
         self.faces
             .iter()
             .map(|f| {
-                let root = find(&mut parent, f[0]);
+                let root = sets.find(f[0]);
                 let next = label.len() as u32;
                 *label.entry(root).or_insert(next)
             })

@@ -29,6 +29,7 @@ use std::collections::HashMap;
 use glam::Vec3;
 
 use super::TriMesh;
+use crate::disjoint_sets::DisjointSets;
 
 /// Faces of at most this area (m²) are degenerate: collinear vertices, whose normal is undefined.
 pub const MIN_FACE_AREA_M2: f32 = 1e-12;
@@ -67,20 +68,12 @@ impl TriMesh {
         }
         // Per vertex, union-find over its incident faces: faces sharing the edge (v, w) are in
         // one fan. Valences are small, so the other endpoints are searched linearly.
-        fn find(p: &mut [usize], mut a: usize) -> usize {
-            while p[a] != a {
-                p[a] = p[p[a]];
-                a = p[a];
-            }
-            a
-        }
-        let mut parent: Vec<usize> = Vec::new();
+        let mut sets = DisjointSets::default();
         let mut by_other: Vec<(u32, usize)> = Vec::new();
-        let mut roots: Vec<usize> = Vec::new();
+        let mut roots: Vec<u32> = Vec::new();
         for v in 0..n {
             let row = &mut fans[offsets[v]..offsets[v + 1]];
-            parent.clear();
-            parent.extend(0..row.len());
+            sets.reset(row.len());
             by_other.clear();
             for (k, &(fi, _)) in row.iter().enumerate() {
                 for &w in &self.faces[fi as usize] {
@@ -88,19 +81,14 @@ impl TriMesh {
                         continue;
                     }
                     match by_other.iter().find(|&&(o, _)| o == w) {
-                        Some(&(_, j)) => {
-                            let (a, b) = (find(&mut parent, j), find(&mut parent, k));
-                            if a != b {
-                                parent[a.max(b)] = a.min(b);
-                            }
-                        }
+                        Some(&(_, j)) => sets.union(j as u32, k as u32),
                         None => by_other.push((w, k)),
                     }
                 }
             }
             roots.clear();
             for (k, entry) in row.iter_mut().enumerate() {
-                let r = find(&mut parent, k);
+                let r = sets.find(k as u32);
                 let label = match roots.iter().position(|&x| x == r) {
                     Some(l) => l,
                     None => {
