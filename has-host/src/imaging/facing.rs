@@ -118,25 +118,29 @@ pub fn own_surface_normals(
         }
     }
     let roots: Vec<u32> = (0..points.len() as u32).map(|i| sets.find(i)).collect();
-    let mut members: std::collections::BTreeMap<u32, Vec<Vec3>> = Default::default();
+    // Each component's points under its root (its smallest index).
+    let mut members: Vec<Vec<Vec3>> = vec![Vec::new(); points.len()];
     for (&r, &p) in roots.iter().zip(points) {
-        members.entry(r).or_default().push(p);
+        members[r as usize].push(p);
     }
     // A patch spans a cell in two directions when its second principal spread is at least that
     // of a disk a cell across (a disk of radius r spreads r/2 along every direction in it).
-    let spans: std::collections::BTreeMap<u32, bool> = members
+    let spans: Vec<bool> = members
         .iter()
-        .map(|(&r, ps)| {
+        .map(|ps| {
+            if ps.is_empty() {
+                return false;
+            }
             let (_, cov) = covariance(ps.iter().copied());
             let mut ev = symmetric_eigen3(cov).0;
             ev.sort_by(f64::total_cmp);
-            (r, ev[1].max(0.0).sqrt() >= 0.25 * f64::from(cell_m))
+            ev[1].max(0.0).sqrt() >= 0.25 * f64::from(cell_m)
         })
         .collect();
     Ok(roots
         .iter()
         .zip(normals)
-        .map(|(r, n)| spans[r].then_some(n))
+        .map(|(&r, n)| spans[r as usize].then_some(n))
         .collect())
 }
 
