@@ -35,7 +35,17 @@
 //! points to the pairs behind the building, and the cloud's √CD was 1.54 m against 0.59 m with
 //! the facing). A patch smaller than a resolution cell — one pair's false alarm is such a blob —
 //! has no surface of its own ([`super::facing`]) and is seen from every side, as before. A pair
-//! that sees `p` and does not confirm it *denies* it; `d(p)` pairs do. `p` is dropped when
+//! that sees `p` and does not confirm it *denies* it; `d(p)` pairs do.
+//!
+//! **A pair's own terrain echo says nothing.** A detection of pair `j` inside `j`'s own layer
+//! over the known terrain, with nothing of the fused cloud rising out of that layer around it
+//! ([`super::terrain_echo`] with `j`'s vertical extent), is what `j` would detect of the bare
+//! ground there as readily as of a surface: near such a detection `j` neither confirms `p` nor,
+//! having detected something, denies it. A vehicle's pair places height to metres, so the
+//! ground speckle that passes its test lies inside its layer; counted as confirmations, two
+//! vehicles' ground false alarms kept a UAV pair's false alarm 1 m over open ground, 16 m from
+//! any building (office_pair's default cloud: 31 points carrying a quarter of its accuracy
+//! term; docs/results.md, "A pair's own ground echo confirms nothing"). `p` is dropped when
 //! `d(p) ≥ need·k(p)` (`need` = `imaging.cross_pair_denials`). Since the surface points that
 //! block legs are fixed before any point is judged, one pass decides every point.
 //!
@@ -74,8 +84,12 @@ pub struct PairSight<'a> {
     pub boresight: Vec3,
     /// Aperture (transmit track) centre, metres.
     pub tx: Vec3,
-    /// The pair's detected points.
+    /// The pair's detected points, without its terrain echoes.
     pub detections: Option<&'a PointIndex>,
+    /// The pair's detections that are its own terrain's echoes ([`super::terrain_echo`]: inside
+    /// its layer over the terrain, under nothing that rises out of it): a point near one of them
+    /// is one the pair cannot tell from the ground, and it neither confirms nor denies it.
+    pub ground: Option<&'a PointIndex>,
 }
 
 /// What the pairs say of one fused point (module docs).
@@ -145,6 +159,7 @@ fn count(
     let confirms = |p: Vec3, m: u64, k: usize| {
         kept_by(m, k) || sights[k].detections.is_some_and(|d| d.nearest(p).1 <= r2)
     };
+    let grounded = |p: Vec3, k: usize| sights[k].ground.is_some_and(|d| d.nearest(p).1 <= r2);
     // A point two pairs kept or confirm is not one pair's false alarm, nor is a point on a patch
     // at least a resolution cell across (one with a facing): the kinds of point that stand for a
     // surface between a pair and another point.
@@ -205,6 +220,8 @@ fn count(
             for (k, s) in sights.iter().enumerate() {
                 if confirms(p, m, k) {
                     t.confirmed = t.confirmed.saturating_add(1);
+                } else if grounded(p, k) {
+                    // Its detection here may be the ground's: no word either way.
                 } else if (p - s.rx).dot(s.boresight) > 0.0
                     && facing
                         .get(i)
@@ -360,6 +377,7 @@ mod tests {
             boresight: (-rx).with_z(0.0).normalize(),
             tx,
             detections: det,
+            ground: None,
         }
     }
 
@@ -608,6 +626,35 @@ mod tests {
             let want: Vec<bool> = full.iter().map(|&t| kept(t, need)).collect();
             assert_eq!(quick, want, "need {need}");
         }
+    }
+
+    #[test]
+    fn a_pair_whose_detection_there_is_its_own_ground_echo_neither_confirms_nor_denies() {
+        let p = Vec3::new(0.0, 0.0, 1.0);
+        let echo = PointIndex::new("ground echo", &[p + Vec3::new(0.5, 0.0, -0.5)]).unwrap();
+        let mut sights = around();
+        // Pair 0 kept it; pair 1 detected something there that is its terrain's echo; pair 2
+        // sees it and detected nothing: one denial against one confirmation keeps it.
+        sights[1].ground = Some(&echo);
+        let t = tallies(&[p], &[1], &[], &sights, &open_ground(), 1.5);
+        assert_eq!(
+            t,
+            vec![Tally {
+                confirmed: 1,
+                denied: 1
+            }]
+        );
+        // The same detection counted as pair 1's own would confirm it.
+        sights[1].ground = None;
+        sights[1].detections = Some(&echo);
+        let t = tallies(&[p], &[1], &[], &sights, &open_ground(), 1.5);
+        assert_eq!(t[0].confirmed, 2);
+        // Nothing of pair 1 there: it denies, and with pair 2 the point is dropped.
+        sights[1].detections = None;
+        assert_eq!(
+            confirmed(&[p], &[1], &[], &sights, &open_ground(), 1.5, 2),
+            vec![false]
+        );
     }
 
     #[test]

@@ -31,7 +31,7 @@ use super::confirmation::{confirmed, PairSight};
 use super::driver::{image_pair, survey_pair, ImagingError, PairImage, PairPlan, RunOptions};
 use super::facing::own_surface_normals;
 use super::finer_height::placed_finer;
-use super::terrain_echo::terrain_echoes;
+use super::terrain_echo::{terrain_echoes, TerrainLayer};
 use super::world::{Terrain, World};
 use crate::scenario::{Pairing, Scenario};
 use crate::sensors::{nyquist_spacing_m, pair_resolution_m, vertical_extent_m};
@@ -676,20 +676,37 @@ pub fn confirm(
     if need == 0 || fused.points.is_empty() {
         return fused;
     }
-    let indices: Vec<Option<PointIndex>> = images
+    let support = support_distance_m(sc, plans);
+    let (split, mask) = match own_terrain_echoes(sc, world, plans, images, &fused, support) {
+        Some(own) => (own.detections, own.mask),
+        None => (
+            images
+                .iter()
+                .map(|im| (im.points.clone(), Vec::new()))
+                .collect(),
+            fused.pair_mask.clone(),
+        ),
+    };
+    let index = |v: &Vec<Vec3>| {
+        (!v.is_empty())
+            .then(|| PointIndex::new("pair points", v).ok())
+            .flatten()
+    };
+    let indices: Vec<(Option<PointIndex>, Option<PointIndex>)> = split
         .iter()
-        .map(|im| PointIndex::new("pair points", &im.points).ok())
+        .map(|(kept, ground)| (index(kept), index(ground)))
         .collect();
     let sights: Vec<PairSight<'_>> = plans
         .iter()
         .zip(&indices)
-        .map(|(p, idx)| {
+        .map(|(p, (idx, ground))| {
             let a = sc.array(p.bs);
             PairSight {
                 rx: a.centre,
                 boresight: a.boresight(),
                 tx: sc.aperture(p.aperture, 2).centre(),
                 detections: idx.as_ref(),
+                ground: ground.as_ref(),
             }
         })
         .collect();
@@ -697,7 +714,6 @@ pub fn confirm(
     // cell): a pair behind it receives nothing from it. The fused points are finite voxel
     // positions and every point has a pair unless more than 64 pairs were imaged; then no point
     // has a facing, as before.
-    let support = support_distance_m(sc, plans);
     // Two fused points lie on one patch when they are lattice neighbours (diagonals included);
     // a patch is a surface of its own when it spans the coarsest resolution cell.
     let facing = own_surface_normals(
@@ -710,7 +726,7 @@ pub fn confirm(
     .unwrap_or_else(|_| vec![None; fused.points.len()]);
     let keep = confirmed(
         &fused.points,
-        &fused.pair_mask,
+        &mask,
         &facing,
         &sights,
         &world.terrain.scene,
@@ -722,6 +738,77 @@ pub fn confirm(
         unconfirmed,
         ..fused.retain(&keep)
     }
+}
+
+/// Each pair's detections split into what it confirms with and its own terrain echoes, and the
+/// fused points' pair masks without the pairs for which the point is their terrain's echo.
+struct OwnTerrainEchoes {
+    /// Per pair: (its detections that are not its terrain's echoes, those that are).
+    detections: Vec<(Vec<Vec3>, Vec<Vec3>)>,
+    /// [`FusedCloud::pair_mask`] with bit `k` cleared where the point is pair `k`'s terrain echo.
+    mask: Vec<u64>,
+}
+
+/// A pair's detection inside its own layer over the known terrain, under nothing of the fused
+/// cloud that rises out of that layer, is what the pair would detect of the bare ground
+/// ([`super::terrain_echo`] with that pair's layer): it neither confirms nor denies a fused
+/// point there ([`super::confirmation`]). `None` without a known terrain or with
+/// `imaging.terrain_echo_test` off.
+fn own_terrain_echoes(
+    sc: &Scenario,
+    world: &World,
+    plans: &[PairPlan],
+    images: &[PairImage],
+    fused: &FusedCloud,
+    support_m: f32,
+) -> Option<OwnTerrainEchoes> {
+    if !sc.imaging.terrain_echo_test || !world.terrain.known {
+        return None;
+    }
+    let height = |p: Vec3| world.terrain.below(p).map_or(f32::NAN, |g| p.z - g.z);
+    let heights: Vec<f32> = fused.points.par_iter().map(|&p| height(p)).collect();
+    let layers = vertical_extents(sc, plans, fused);
+    let cloud = TerrainLayer::new(&fused.points, &heights, &layers, support_m);
+    let (lambda, bandwidth_hz) = (
+        sc.wavelength_m() as f32,
+        (sc.radar.bandwidth_mhz * 1e6) as f32,
+    );
+    let geometry: Vec<_> = plans
+        .iter()
+        .map(|p| (sc.array(p.bs), sc.aperture(p.aperture, p.positions)))
+        .collect();
+    let echo_of = |k: usize, p: Vec3, h: f32| {
+        let (a, ap) = &geometry[k];
+        cloud.is_echo(p, h, vertical_extent_m(p, a, ap, lambda, bandwidth_hz))
+    };
+    let detections = images
+        .iter()
+        .enumerate()
+        .map(|(k, im)| {
+            let echo: Vec<bool> = im
+                .points
+                .par_iter()
+                .map(|&p| echo_of(k, p, height(p)))
+                .collect();
+            let (ground, kept): (Vec<_>, Vec<_>) = im.points.iter().zip(&echo).partition(|x| *x.1);
+            (
+                kept.into_iter().map(|x| *x.0).collect(),
+                ground.into_iter().map(|x| *x.0).collect(),
+            )
+        })
+        .collect();
+    let mask = fused
+        .points
+        .par_iter()
+        .zip(&fused.pair_mask)
+        .zip(&heights)
+        .map(|((&p, &m), &h)| {
+            (0..geometry.len().min(64))
+                .filter(|&k| (m >> k) & 1 == 1 && !echo_of(k, p, h))
+                .fold(0u64, |acc, k| acc | 1 << k)
+        })
+        .collect();
+    Some(OwnTerrainEchoes { detections, mask })
 }
 
 /// The fused cloud without the echoes of the known terrain (`imaging.terrain_echo_test`,

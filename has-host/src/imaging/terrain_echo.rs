@@ -32,6 +32,64 @@
 use glam::Vec3;
 use std::collections::HashMap;
 
+/// A cloud's points bucketed horizontally with their heights above the terrain and their layers,
+/// to ask whether a place holds a terrain echo (module docs).
+pub struct TerrainLayer<'a> {
+    points: &'a [Vec3],
+    heights: &'a [f32],
+    layers: &'a [f32],
+    r: f32,
+    grid: HashMap<[i64; 2], Vec<usize>>,
+}
+
+impl<'a> TerrainLayer<'a> {
+    /// The cloud `points`, `heights[i]` point `i`'s height above the terrain below it (NaN: no
+    /// terrain below), `layers[i]` its layer `H`; `support_m` the horizontal radius within which
+    /// a higher point makes a place part of a structure.
+    pub fn new(points: &'a [Vec3], heights: &'a [f32], layers: &'a [f32], support_m: f32) -> Self {
+        let r = support_m.max(1e-3);
+        let mut grid: HashMap<[i64; 2], Vec<usize>> = HashMap::new();
+        for (i, p) in points.iter().enumerate() {
+            if heights[i].is_finite() {
+                grid.entry(Self::cell(r, *p)).or_default().push(i);
+            }
+        }
+        TerrainLayer {
+            points,
+            heights,
+            layers,
+            r,
+            grid,
+        }
+    }
+
+    fn cell(r: f32, p: Vec3) -> [i64; 2] {
+        [(p.x / r).floor() as i64, (p.y / r).floor() as i64]
+    }
+
+    /// Whether a detection at `p`, `h` above the terrain, by pairs whose layer there is `layer`,
+    /// is the terrain's echo: inside the layer, and no point of the cloud within the support
+    /// distance horizontally stands higher than both `layer` and its own layer.
+    pub fn is_echo(&self, p: Vec3, h: f32, layer: f32) -> bool {
+        if !(h.is_finite() && layer.is_finite()) || h > layer {
+            return false;
+        }
+        let [cx, cy] = Self::cell(self.r, p);
+        let rises = (-1..=1).any(|dx| {
+            (-1..=1).any(|dy| {
+                self.grid.get(&[cx + dx, cy + dy]).is_some_and(|ids| {
+                    ids.iter().any(|&j| {
+                        let q = self.points[j];
+                        self.heights[j] > layer.max(self.layers[j])
+                            && (q.x - p.x).hypot(q.y - p.y) <= self.r
+                    })
+                })
+            })
+        });
+        !rises
+    }
+}
+
 /// Which fused points are terrain echoes (module docs): `heights[i]` is point `i`'s height above
 /// the terrain below it (NaN: no terrain below, never an echo), `layers[i]` its layer `H`,
 /// `support_m` the horizontal radius within which a higher point makes `i` part of a structure.
@@ -41,36 +99,11 @@ pub fn terrain_echoes(
     layers: &[f32],
     support_m: f32,
 ) -> Vec<bool> {
-    let r = support_m.max(1e-3);
-    let cell = |p: Vec3| [(p.x / r).floor() as i64, (p.y / r).floor() as i64];
-    // Horizontal buckets of every point's height above its terrain.
-    let mut grid: HashMap<[i64; 2], Vec<usize>> = HashMap::new();
-    for (i, p) in points.iter().enumerate() {
-        if heights[i].is_finite() {
-            grid.entry(cell(*p)).or_default().push(i);
-        }
-    }
+    let layer = TerrainLayer::new(points, heights, layers, support_m);
     points
         .iter()
         .enumerate()
-        .map(|(i, p)| {
-            let (h, layer) = (heights[i], layers[i]);
-            if !(h.is_finite() && layer.is_finite()) || h > layer {
-                return false;
-            }
-            let [cx, cy] = cell(*p);
-            let rises = (-1..=1).any(|dx| {
-                (-1..=1).any(|dy| {
-                    grid.get(&[cx + dx, cy + dy]).is_some_and(|ids| {
-                        ids.iter().any(|&j| {
-                            let q = points[j];
-                            heights[j] > layer.max(layers[j]) && (q.x - p.x).hypot(q.y - p.y) <= r
-                        })
-                    })
-                })
-            });
-            !rises
-        })
+        .map(|(i, &p)| layer.is_echo(p, heights[i], layers[i]))
         .collect()
 }
 
