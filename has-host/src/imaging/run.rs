@@ -1050,6 +1050,84 @@ mod tests {
     }
 
     #[test]
+    fn a_pairs_detection_inside_its_own_layer_on_open_ground_is_its_ground_echo_and_confirms_nothing(
+    ) {
+        let sc = Scenario::from_toml_str(include_str!("../../../fixtures/suite/factory_site.toml"))
+            .expect("factory site");
+        let world = build_world(&sc).expect("world");
+        let plans = plan_pairs(&sc).expect("pairs");
+        let lambda = sc.wavelength_m() as f32;
+        let bw = (sc.radar.bandwidth_mhz * 1e6) as f32;
+        let layer = |k: usize, p: Vec3| {
+            let pl = &plans[k];
+            vertical_extent_m(
+                p,
+                &sc.array(pl.bs),
+                &sc.aperture(pl.aperture, pl.positions),
+                lambda,
+                bw,
+            )
+        };
+        // Open ground in the region's corner, far from the hall.
+        let (lo, _) = sc.region();
+        let foot = world
+            .terrain
+            .below(Vec3::new(lo.x + 3.0, lo.y + 3.0, 50.0))
+            .expect("terrain under the region");
+        // The pair that places height most finely there and the one that does so most coarsely.
+        let by_layer = |k: &usize| layer(*k, foot).to_bits();
+        let fine = (0..plans.len()).min_by_key(by_layer).unwrap();
+        let coarse = (0..plans.len()).max_by_key(by_layer).unwrap();
+        let (lf, lc) = (layer(fine, foot), layer(coarse, foot));
+        assert!(lc > 2.0 * lf, "layers {lf} and {lc} m");
+        // A point above the fine pair's layer and inside the coarse pair's, kept by the fine pair;
+        // the coarse pair detected something next to it.
+        let h = 0.5 * (lf + lc).min(2.0 * lf + 0.5 * lc);
+        let p = foot + Vec3::Z * h;
+        assert!(h > layer(fine, p) && h < layer(coarse, p), "height {h} m");
+        let q = p + Vec3::new(0.4, 0.0, 0.0);
+        let mut images: Vec<PairImage> = plans
+            .iter()
+            .map(|_| PairImage {
+                points: Vec::new(),
+                intensity: Vec::new(),
+                stats: Default::default(),
+            })
+            .collect();
+        images[fine].points.push(p);
+        images[fine].intensity.push(1.0);
+        images[coarse].points.push(q);
+        images[coarse].intensity.push(1.0);
+        let fused = fuse(&sc, &plans, &images, sc.imaging.voxel_m);
+        let support = support_distance_m(&sc, &plans);
+        assert!(support > 0.4);
+        let own = own_terrain_echoes(&sc, &world, &plans, &images, &fused, support)
+            .expect("a known terrain");
+        assert_eq!(own.detections[fine], (vec![p], vec![]));
+        assert_eq!(own.detections[coarse], (vec![], vec![q]));
+        // The fused points: each keeps its pair only where it is not that pair's ground echo.
+        for (x, (&m, &m_own)) in fused
+            .points
+            .iter()
+            .zip(fused.pair_mask.iter().zip(&own.mask))
+        {
+            if *x == p {
+                assert_eq!(m_own, m);
+            } else {
+                assert_eq!(m_own, 0, "the coarse pair's own ground echo");
+            }
+        }
+        // Something of the cloud rising out of the coarse pair's layer there (a wall's image)
+        // makes its detection a structure's foot: it confirms again.
+        images[coarse].points.push(q + Vec3::Z * (lc + 1.0));
+        images[coarse].intensity.push(1.0);
+        let fused = fuse(&sc, &plans, &images, sc.imaging.voxel_m);
+        let own = own_terrain_echoes(&sc, &world, &plans, &images, &fused, support)
+            .expect("a known terrain");
+        assert_eq!(own.detections[coarse].1, vec![]);
+    }
+
+    #[test]
     fn the_pairing_turns_with_the_site_and_never_takes_a_panel_facing_away() {
         let named = |sc: &Scenario| -> Vec<(String, String)> {
             plan_pairs(sc)
