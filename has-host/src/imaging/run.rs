@@ -769,18 +769,8 @@ fn own_terrain_echoes(
     let heights: Vec<f32> = fused.points.par_iter().map(|&p| height(p)).collect();
     let layers = vertical_extents(sc, plans, fused);
     let cloud = TerrainLayer::new(&fused.points, &heights, &layers, support_m);
-    let (lambda, bandwidth_hz) = (
-        sc.wavelength_m() as f32,
-        (sc.radar.bandwidth_mhz * 1e6) as f32,
-    );
-    let geometry: Vec<_> = plans
-        .iter()
-        .map(|p| (sc.array(p.bs), sc.aperture(p.aperture, p.positions)))
-        .collect();
-    let echo_of = |k: usize, p: Vec3, h: f32| {
-        let (a, ap) = &geometry[k];
-        cloud.is_echo(p, h, vertical_extent_m(p, a, ap, lambda, bandwidth_hz))
-    };
+    let pair_layers = PairLayers::new(sc, plans);
+    let echo_of = |k: usize, p: Vec3, h: f32| cloud.is_echo(p, h, pair_layers.at(k, p));
     let detections = images
         .iter()
         .enumerate()
@@ -803,7 +793,7 @@ fn own_terrain_echoes(
         .zip(&fused.pair_mask)
         .zip(&heights)
         .map(|((&p, &m), &h)| {
-            (0..geometry.len().min(64))
+            (0..plans.len().min(64))
                 .filter(|&k| (m >> k) & 1 == 1 && !echo_of(k, p, h))
                 .fold(0u64, |acc, k| acc | 1 << k)
         })
@@ -848,27 +838,45 @@ pub fn drop_terrain_echoes(
 /// Each fused point's vertical extent: the finest among the pairs that kept it
 /// ([`vertical_extent_m`] at the point; infinite when no recorded pair kept it).
 pub fn vertical_extents(sc: &Scenario, plans: &[PairPlan], fused: &FusedCloud) -> Vec<f32> {
-    let (lambda, bandwidth_hz) = (
-        sc.wavelength_m() as f32,
-        (sc.radar.bandwidth_mhz * 1e6) as f32,
-    );
-    let geometry: Vec<_> = plans
-        .iter()
-        .map(|p| (sc.array(p.bs), sc.aperture(p.aperture, p.positions)))
-        .collect();
+    let layers = PairLayers::new(sc, plans);
     fused
         .points
         .par_iter()
         .zip(&fused.pair_mask)
         .map(|(&p, &mask)| {
-            geometry
-                .iter()
-                .enumerate()
-                .filter(|(k, _)| *k < 64 && mask & (1 << k) != 0)
-                .map(|(_, (a, ap))| vertical_extent_m(p, a, ap, lambda, bandwidth_hz))
+            (0..plans.len().min(64))
+                .filter(|&k| mask & (1 << k) != 0)
+                .map(|k| layers.at(k, p))
                 .fold(f32::INFINITY, f32::min)
         })
         .collect()
+}
+
+/// Each pair's vertical extent at a place ([`vertical_extent_m`]: how finely it places an echo
+/// in height there), the pairs' geometry gathered once.
+struct PairLayers {
+    geometry: Vec<(crate::sensors::PlanarArray, crate::sensors::VirtualAperture)>,
+    wavelength_m: f32,
+    bandwidth_hz: f32,
+}
+
+impl PairLayers {
+    fn new(sc: &Scenario, plans: &[PairPlan]) -> Self {
+        PairLayers {
+            geometry: plans
+                .iter()
+                .map(|p| (sc.array(p.bs), sc.aperture(p.aperture, p.positions)))
+                .collect(),
+            wavelength_m: sc.wavelength_m() as f32,
+            bandwidth_hz: (sc.radar.bandwidth_mhz * 1e6) as f32,
+        }
+    }
+
+    /// Pair `k`'s vertical extent at `p`, metres.
+    fn at(&self, k: usize, p: Vec3) -> f32 {
+        let (a, ap) = &self.geometry[k];
+        vertical_extent_m(p, a, ap, self.wavelength_m, self.bandwidth_hz)
+    }
 }
 
 /// The fused cloud without the points a finer pair places at another height
@@ -1056,18 +1064,8 @@ mod tests {
             .expect("factory site");
         let world = build_world(&sc).expect("world");
         let plans = plan_pairs(&sc).expect("pairs");
-        let lambda = sc.wavelength_m() as f32;
-        let bw = (sc.radar.bandwidth_mhz * 1e6) as f32;
-        let layer = |k: usize, p: Vec3| {
-            let pl = &plans[k];
-            vertical_extent_m(
-                p,
-                &sc.array(pl.bs),
-                &sc.aperture(pl.aperture, pl.positions),
-                lambda,
-                bw,
-            )
-        };
+        let layers = PairLayers::new(&sc, &plans);
+        let layer = |k: usize, p: Vec3| layers.at(k, p);
         // Open ground in the region's corner, far from the hall.
         let (lo, _) = sc.region();
         let foot = world
