@@ -592,6 +592,9 @@ pub struct FusedCloud {
     pub unconfirmed: usize,
     /// Points dropped as echoes of the known terrain ([`drop_terrain_echoes`]).
     pub terrain_echoes: usize,
+    /// The pairs' detections that were their own terrain's echoes, which confirm nothing
+    /// ([`confirm`], [`super::confirmation`]), summed over the pairs.
+    pub pair_ground_echoes: usize,
     /// Points dropped as copies of a surface a finer pair placed at another height
     /// ([`drop_finer_heights`]).
     pub finer_heights: usize,
@@ -736,6 +739,7 @@ pub fn confirm(
     let unconfirmed = keep.iter().filter(|&&k| !k).count();
     FusedCloud {
         unconfirmed,
+        pair_ground_echoes: split.iter().map(|(_, ground)| ground.len()).sum(),
         ..fused.retain(&keep)
     }
 }

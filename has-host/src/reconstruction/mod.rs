@@ -220,6 +220,9 @@ pub struct PointCloudReport {
     pub unconfirmed_removed: usize,
     /// Points removed as echoes of the known terrain (`imaging.terrain_echo_test`).
     pub terrain_echoes_removed: usize,
+    /// The pairs' detections that were each pair's own terrain echo (inside its layer over the
+    /// terrain, under nothing that rises out of it), which confirm nothing; summed over pairs.
+    pub pair_ground_echoes: usize,
     /// Points removed as copies of a surface a finer pair placed at another height
     /// (`imaging.finer_height_test`).
     pub finer_heights_removed: usize,
@@ -540,6 +543,7 @@ impl Imaged<'_> {
             observable_truth: ObservableCompleteness::new(&cmp, &observable),
             unconfirmed_removed: fused.unconfirmed,
             terrain_echoes_removed: fused.terrain_echoes,
+            pair_ground_echoes: fused.pair_ground_echoes,
             finer_heights_removed: fused.finer_heights,
         };
         let any_pairing_pct = imaging::share_pct(&imaging::observable_truth(

@@ -61,8 +61,12 @@ impl ReconstructRunReport {
         }
         writeln!(
             s,
-            "| points | {} ({} unconfirmed by the pairs that see them, {} terrain echoes, {} copies of a surface a finer pair placed at another height removed) | — |",
-            pc.metrics.points, pc.unconfirmed_removed, pc.terrain_echoes_removed, pc.finer_heights_removed
+            "| points | {} ({} unconfirmed by the pairs that see them, {} terrain echoes, {} copies of a surface a finer pair placed at another height removed; {} of the pairs' detections were their own terrain echoes, which confirm nothing) | — |",
+            pc.metrics.points,
+            pc.unconfirmed_removed,
+            pc.terrain_echoes_removed,
+            pc.finer_heights_removed,
+            pc.pair_ground_echoes
         )?;
         if let Some(m) = &r.mesh {
             writeln!(s, "\n| reconstructed mesh | this run | paper (Table 1) |")?;
