@@ -680,25 +680,25 @@ pub fn confirm(
         return fused;
     }
     let support = support_distance_m(sc, plans);
-    let (split, mask) = match own_terrain_echoes(sc, world, plans, images, &fused, support) {
-        Some(own) => (own.detections, own.mask),
-        None => (
-            images
-                .iter()
-                .map(|im| (im.points.clone(), Vec::new()))
-                .collect(),
-            fused.pair_mask.clone(),
-        ),
-    };
-    let index = |v: &Vec<Vec3>| {
+    let own = own_terrain_echoes(sc, world, plans, images, &fused, support);
+    let index = |v: &[Vec3]| {
         (!v.is_empty())
             .then(|| PointIndex::new("pair points", v).ok())
             .flatten()
     };
-    let indices: Vec<(Option<PointIndex>, Option<PointIndex>)> = split
-        .iter()
-        .map(|(kept, ground)| (index(kept), index(ground)))
-        .collect();
+    // Each pair's detections that confirm, and its own terrain echoes (none without the test).
+    let indices: Vec<(Option<PointIndex>, Option<PointIndex>)> = match &own {
+        Some(own) => own
+            .detections
+            .iter()
+            .map(|(kept, ground)| (index(kept), index(ground)))
+            .collect(),
+        None => images.iter().map(|im| (index(&im.points), None)).collect(),
+    };
+    let mask = own.as_ref().map_or(&fused.pair_mask, |o| &o.mask);
+    let pair_ground_echoes = own.as_ref().map_or(0, |o| {
+        o.detections.iter().map(|(_, ground)| ground.len()).sum()
+    });
     let sights: Vec<PairSight<'_>> = plans
         .iter()
         .zip(&indices)
@@ -729,7 +729,7 @@ pub fn confirm(
     .unwrap_or_else(|_| vec![None; fused.points.len()]);
     let keep = confirmed(
         &fused.points,
-        &mask,
+        mask,
         &facing,
         &sights,
         &world.terrain.scene,
@@ -739,7 +739,7 @@ pub fn confirm(
     let unconfirmed = keep.iter().filter(|&&k| !k).count();
     FusedCloud {
         unconfirmed,
-        pair_ground_echoes: split.iter().map(|(_, ground)| ground.len()).sum(),
+        pair_ground_echoes,
         ..fused.retain(&keep)
     }
 }
