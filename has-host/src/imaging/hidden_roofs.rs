@@ -19,13 +19,15 @@
 //!   spanning [`SIDE_IMAGED_FRACTION`] of its length; an imaged side stands at its outermost
 //!   wall sample, and the sides not imaged where the imaged ones end (not at the farthest stray
 //!   sample: on held-out site_43 one point 3.7 m out carried a strip of roof and its walls
-//!   there, mesh √CD 0.450 → 1.289 m): an L of two faces gives the footprint, one face alone
-//!   gives none (its depth is unknown). Where two imaged sides
-//!   meet, the walls must reach the corner within a resolution cell (a round building's
-//!   bounding box has its corners in the open), and no face wider than two resolution cells
-//!   may stand inside the rectangle a resolution cell under the walls' top (an L-shaped block
-//!   or two buildings side by side whose inner faces were imaged; a sawtooth's risers stand
-//!   above the walls' top and do not count);
+//!   there, mesh √CD 0.450 → 1.289 m) — but where the building's imaged roof ends more than a
+//!   lattice cell farther out (its samples at the walls' top spanning as much of the side as
+//!   an imaged side's walls must), there: a roof does not reach past its walls. An L of two
+//!   faces gives the footprint, one face alone gives none (its depth is unknown). Where two
+//!   imaged sides meet, the walls must reach the corner within a resolution cell (a round
+//!   building's bounding box has its corners in the open), and no face wider than two
+//!   resolution cells may stand inside the rectangle a resolution cell under the walls' top
+//!   (an L-shaped block or two buildings side by side whose inner faces were imaged; a
+//!   sawtooth's risers stand above the walls' top and do not count);
 //! - **a circle**, when the normals along an imaged side turn by more than [`ROUND_TURN_RAD`]
 //!   over its length (a wall's normals scatter about one direction, a tank's turn with the arc):
 //!   the least-squares circle through the walls, which must lie on it within the support
@@ -643,8 +645,11 @@ impl Building<'_> {
         };
         // The rectangle is its walls': an imaged side stands at its outermost wall sample, one
         // no wall images where the imaged sides across it end — not at the farthest stray
-        // sample (a lone point a few metres out would carry the roof with it).
+        // sample (a lone point a few metres out would carry the roof with it). Where the
+        // building's imaged roof ends farther out, the rectangle the walls give is widened to
+        // it once the walls' checks have passed (`roof_reach`).
         let first = classify(lo, hi);
+        let roof_reach = self.roof_reach(&first, lo, hi, &uv);
         for (s, across) in [(0, [2, 3]), (1, [2, 3]), (2, [0, 1]), (3, [0, 1])] {
             let at = if first.imaged[s] {
                 first.reach[s]
@@ -778,6 +783,26 @@ impl Building<'_> {
         if widest_face(&inner, front, u) >= 2.0 * tol {
             return unknown("a face inside the rectangle");
         }
+        // A side no wall images stands no nearer than where the imaged roof ends: where the
+        // roof reaches past it by more than a lattice cell, the rectangle the walls outline is
+        // widened to the roof (the checks above are the walls').
+        let cell = self.cell_m;
+        for s in (0..4).filter(|&s| !first.imaged[s]) {
+            let r = roof_reach[s];
+            match s {
+                0 if r < lo.x - cell => lo.x = r,
+                1 if r > hi.x + cell => hi.x = r,
+                2 if r < lo.y - cell => lo.y = r,
+                3 if r > hi.y + cell => hi.y = r,
+                _ => {}
+            }
+        }
+        let corner = |a: usize, b: usize| {
+            Vec2::new(
+                if a == 0 { lo.x } else { hi.x },
+                if b == 2 { lo.y } else { hi.y },
+            )
+        };
         let corners =
             [corner(0, 2), corner(1, 2), corner(1, 3), corner(0, 3)].map(|c| u * c.x + v * c.y);
         (
@@ -790,6 +815,77 @@ impl Building<'_> {
 }
 
 impl Building<'_> {
+    /// Per side of the rectangle `lo`–`hi` (frame `uv`, sides as [`Sides`]), where the
+    /// building's imaged roof ends across it: the outermost lattice slab parallel to the side
+    /// whose roof samples span [`SIDE_IMAGED_FRACTION`] of the side's length, as a side's wall
+    /// samples must to image it (a lone sample spans nothing). Roof samples are the members
+    /// that are no walls (normal more than [`WALL_MAX_TILT_DEG`] from the horizontal) at the
+    /// imaged walls' top or above, less a resolution cell. A roof does not reach past its
+    /// walls, so a side no wall images that the roof overreaches by more than a lattice cell
+    /// stands there (the rectangle the walls outline is widened to it). On held-out
+    /// cyl_103 (quick, from pairs imaged with a range-flank rule that was not kept) a pitched
+    /// block whose far gable end no pair saw had that side placed where its imaged long walls
+    /// ended, 6 m inside the true face under a roof imaged out to it, and the gaps along that
+    /// line were walled (docs/results.md). Infinite (inward) where no slab spans enough or no
+    /// imaged side gives the walls' top.
+    fn roof_reach(
+        &self,
+        sides: &Sides,
+        lo: Vec2,
+        hi: Vec2,
+        uv: &impl Fn(Vec2) -> Vec2,
+    ) -> [f32; 4] {
+        let mut reach = [
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+            f32::INFINITY,
+            f32::NEG_INFINITY,
+        ];
+        let top = walls_top(sides.outline.iter().map(|&i| self.points[i]), self.cell_m);
+        if !top.is_finite() {
+            return reach;
+        }
+        let max_nz = WALL_MAX_TILT_DEG.to_radians().sin();
+        let floor = top - 2.0 * self.front_m;
+        // Per side: lattice slab across it → span of the roof samples along it, and their
+        // outermost position across it.
+        let mut slabs: [BTreeMap<i64, (f32, f32, f32)>; 4] = Default::default();
+        for &i in self.members {
+            if self.normals[i].z.abs() < max_nz || self.points[i].z < floor {
+                continue;
+            }
+            let q = uv(self.points[i].truncate());
+            for (s, slab) in slabs.iter_mut().enumerate() {
+                let (across, along) = if s < 2 { (q.x, q.y) } else { (q.y, q.x) };
+                let e = slab
+                    .entry((across / self.cell_m).floor() as i64)
+                    .or_insert((along, along, across));
+                let out = if s % 2 == 0 {
+                    e.2.min(across)
+                } else {
+                    e.2.max(across)
+                };
+                *e = (e.0.min(along), e.1.max(along), out);
+            }
+        }
+        let size = hi - lo;
+        for (s, slab) in slabs.iter().enumerate() {
+            let len = if s < 2 { size.y } else { size.x };
+            let mut spans = slab
+                .values()
+                .filter(|(a, b, _)| b - a >= SIDE_IMAGED_FRACTION * len);
+            let outer = if s % 2 == 0 {
+                spans.next()
+            } else {
+                spans.next_back()
+            };
+            if let Some(&(_, _, at)) = outer {
+                reach[s] = at;
+            }
+        }
+        reach
+    }
+
     /// Where side `s` of the rectangle `lo`–`hi` (frame `uv`) stands when the building's roof
     /// is a gable whose far half no pair saw (module docs, "A gable's far half"): the mirror of
     /// the opposite side about the ridge, when the roof's height profile across the rectangle
@@ -1067,6 +1163,58 @@ mod tests {
             assert_eq!(*n, Vec3::Z);
         }
         assert_eq!(prints[0].samples, added.points.len());
+    }
+
+    /// A flat roof at 8 m over `x0..x1` × `y0..y1`, sampled every 0.5 m, facing up.
+    fn flat_roof(s: &mut Samples, x0: f32, x1: f32, y0: f32, y1: f32) {
+        let mut x = x0;
+        while x <= x1 + 1e-3 {
+            let mut y = y0;
+            while y <= y1 + 1e-3 {
+                s.0.push(Vec3::new(x, y, 8.0));
+                s.1.push(Vec3::Z);
+                y += CELL;
+            }
+            x += CELL;
+        }
+    }
+
+    fn east_side(s: &Samples) -> f32 {
+        let (_, prints) = roofs(s);
+        assert_eq!(prints.len(), 1);
+        let Outline::Rectangle(c) = prints[0].outline else {
+            panic!("no rectangle: {:?}", prints[0].outline);
+        };
+        c.iter().map(|q| q.x).fold(f32::NEG_INFINITY, f32::max)
+    }
+
+    #[test]
+    fn a_side_no_wall_images_stands_no_nearer_than_where_the_imaged_roof_ends() {
+        // The 12 × 8 m building's west wall imaged whole, its south wall only over its western
+        // 7 m; the east face not at all.
+        let mut s = Samples::default();
+        wall(&mut s, v(0.0, 0.0), v(7.0, 0.0), -Vec2::Y, 8.0);
+        wall(&mut s, v(0.0, 0.5), v(0.0, 8.0), -Vec2::X, 8.0);
+        // The roof imaged over the western half only: the east side stands where the south
+        // wall's image ends.
+        let mut half = Samples(s.0.clone(), s.1.clone());
+        flat_roof(&mut half, 1.0, 7.0, 1.0, 7.5);
+        assert!(
+            (east_side(&half) - 7.0).abs() < 0.01,
+            "{}",
+            east_side(&half)
+        );
+        // A lone roof sample 4 m farther out spans nothing: the side stays.
+        half.0.push(Vec3::new(11.0, 4.0, 8.0));
+        half.1.push(Vec3::Z);
+        assert!(
+            (east_side(&half) - 7.0).abs() < 0.01,
+            "{}",
+            east_side(&half)
+        );
+        // The roof imaged out to the east face: the side stands at the roof's end.
+        flat_roof(&mut s, 1.0, 12.0, 1.0, 7.5);
+        assert!((east_side(&s) - 12.0).abs() < 0.01, "{}", east_side(&s));
     }
 
     #[test]
