@@ -758,15 +758,9 @@ impl Building<'_> {
         if imaged.iter().filter(|&&i| i).count() < 2 {
             return unknown("fewer than two sides imaged");
         }
-        let corner = |a: usize, b: usize| {
-            Vec2::new(
-                if a == 0 { lo.x } else { hi.x },
-                if b == 2 { lo.y } else { hi.y },
-            )
-        };
         // Where two imaged sides meet the walls reach the corner within a resolution cell.
         let open_corner = [(0, 2), (1, 2), (1, 3), (0, 3)].iter().any(|&(a, b)| {
-            let c = corner(a, b);
+            let c = rectangle_corner(lo, hi, a, b);
             imaged[a] && imaged[b] && outline.iter().all(|&i| uv(xy(i)).distance(c) > tol)
         });
         if open_corner {
@@ -797,14 +791,10 @@ impl Building<'_> {
                 _ => {}
             }
         }
-        let corner = |a: usize, b: usize| {
-            Vec2::new(
-                if a == 0 { lo.x } else { hi.x },
-                if b == 2 { lo.y } else { hi.y },
-            )
-        };
-        let corners =
-            [corner(0, 2), corner(1, 2), corner(1, 3), corner(0, 3)].map(|c| u * c.x + v * c.y);
+        let corners = [(0, 2), (1, 2), (1, 3), (0, 3)].map(|(a, b)| {
+            let c = rectangle_corner(lo, hi, a, b);
+            u * c.x + v * c.y
+        });
         (
             Outline::Rectangle(corners),
             height,
@@ -1038,6 +1028,15 @@ impl Building<'_> {
 struct Mirror {
     axis: Vec2,
     ridge: f32,
+}
+
+/// The corner of the rectangle `lo`–`hi` where side `a` (0 = −u, 1 = +u) meets side `b`
+/// (2 = −v, 3 = +v), in the rectangle's frame.
+fn rectangle_corner(lo: Vec2, hi: Vec2, a: usize, b: usize) -> Vec2 {
+    Vec2::new(
+        if a == 0 { lo.x } else { hi.x },
+        if b == 2 { lo.y } else { hi.y },
+    )
 }
 
 /// The walls of a building sorted by the sides of its bounding rectangle (0 = −u, 1 = +u,
