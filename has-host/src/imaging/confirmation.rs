@@ -37,6 +37,16 @@
 //! has no surface of its own ([`super::facing`]) and is seen from every side, as before. A pair
 //! that sees `p` and does not confirm it *denies* it; `d(p)` pairs do.
 //!
+//! **A pair cannot image what it cannot see.** Pair `j`'s detection near `p` confirms `p` only
+//! when both of `j`'s legs reach `p` without crossing a surface of the cloud: a patch with a
+//! facing ([`super::facing`]) that a leg passes within the support distance of, with the sensor
+//! and `p` on opposite sides of that patch's plane, each by more than the support distance. A
+//! point inside a closed volume whose walls and roof the pairs imaged, or behind a wall the pair
+//! itself imaged, cannot have echoed to that pair; what it detected there is the smear or a
+//! sidelobe of the surfaces it does see, and such a confirmation says nothing either way. Only
+//! crossing counts: a leg that grazes the surface `p` stands on (a roof seen from a panel 10° over
+//! it) keeps `p` on the surface's plane, so it crosses nothing.
+//!
 //! **A pair's own terrain echo says nothing.** A detection of pair `j` inside `j`'s own layer
 //! over the known terrain, with nothing of the fused cloud rising out of that layer around it
 //! ([`super::terrain_echo`] with `j`'s vertical extent), is what `j` would detect of the bare
@@ -113,8 +123,11 @@ pub fn tallies(
     sights: &[PairSight<'_>],
     terrain: &Scene,
     support_m: f32,
+    own_sight: bool,
 ) -> Vec<Tally> {
-    count(points, mask, facing, sights, terrain, support_m, None)
+    count(
+        points, mask, facing, sights, terrain, support_m, own_sight, None,
+    )
 }
 
 /// Which points survive the confirmation: those whose denials are fewer than `need` per
@@ -126,15 +139,25 @@ pub fn confirmed(
     sights: &[PairSight<'_>],
     terrain: &Scene,
     support_m: f32,
+    own_sight: bool,
     need: u8,
 ) -> Vec<bool> {
     if need == 0 {
         return vec![true; points.len()];
     }
-    count(points, mask, facing, sights, terrain, support_m, Some(need))
-        .into_iter()
-        .map(|t| kept(t, need))
-        .collect()
+    count(
+        points,
+        mask,
+        facing,
+        sights,
+        terrain,
+        support_m,
+        own_sight,
+        Some(need),
+    )
+    .into_iter()
+    .map(|t| kept(t, need))
+    .collect()
 }
 
 fn kept(t: Tally, need: u8) -> bool {
@@ -151,6 +174,7 @@ fn count(
     sights: &[PairSight<'_>],
     terrain: &Scene,
     support_m: f32,
+    own_sight: bool,
     need: Option<u8>,
 ) -> Vec<Tally> {
     let r2 = support_m * support_m;
@@ -211,6 +235,48 @@ fn count(
         });
         !blocked && terrain.visible(s, p)
     };
+    // A pair cannot image what it cannot see: its detection at `p` counts only when neither of
+    // its legs crosses a surface of its own (a patch with a facing) on the way, i.e. passes
+    // within the support distance of such a patch's point `w` with the sensor and `p` on opposite
+    // sides of `w`'s plane, each farther from it than the support distance (`p` on the patch
+    // itself, or a sensor on its plane, crosses nothing).
+    let faced: Vec<(Vec3, Vec3)> = points
+        .iter()
+        .take(if own_sight { points.len() } else { 0 })
+        .zip(facing.iter().chain(std::iter::repeat(&None)))
+        .filter_map(|(&p, n)| n.map(|n| (p, n)))
+        .collect();
+    let faced_points: Vec<Vec3> = faced.iter().map(|&(p, _)| p).collect();
+    let faced_near = NearCells::new(&faced_points, support_m);
+    let faced_index = PointIndex::new("faced surface points", &faced_points).ok();
+    let crosses_a_surface = |s: Vec3, p: Vec3| -> bool {
+        let Some(index) = faced_index.as_ref() else {
+            return false;
+        };
+        let d = p - s;
+        let len = d.length();
+        if !len.is_finite() || len <= 2.0 * support_m {
+            return false;
+        }
+        let dir = d / len;
+        let n = (len / step).floor() as usize;
+        (0..=n).any(|k| {
+            let q = s + dir * (k as f32 * step);
+            if !faced_near.may_hold(q) {
+                return false;
+            }
+            let (j, d2) = index.nearest(q);
+            if d2 > r2 {
+                return false;
+            }
+            let (w, nw) = faced[j as usize];
+            let (a, b) = ((s - w).dot(nw), (p - w).dot(nw));
+            a * b < 0.0 && a.abs() > support_m && b.abs() > support_m
+        })
+    };
+    let sees_through_own_legs = |p: Vec3, k: usize| {
+        !crosses_a_surface(sights[k].rx, p) && !crosses_a_surface(sights[k].tx, p)
+    };
     (0..points.len())
         .into_par_iter()
         .map(|i| {
@@ -219,7 +285,11 @@ fn count(
             let mut candidates = Vec::with_capacity(sights.len());
             for (k, s) in sights.iter().enumerate() {
                 if confirms(p, m, k) {
-                    t.confirmed = t.confirmed.saturating_add(1);
+                    if sees_through_own_legs(p, k) {
+                        t.confirmed = t.confirmed.saturating_add(1);
+                    }
+                    // Otherwise its detection here is not an echo from `p` (a sidelobe or
+                    // smear of what it does see): no word either way.
                 } else if grounded(p, k) {
                     // Its detection here may be the ground's: no word either way.
                 } else if (p - s.rx).dot(s.boresight) > 0.0
@@ -352,7 +422,7 @@ mod tests {
         terrain: &Scene,
         support_m: f32,
     ) -> Vec<u8> {
-        tallies(points, mask, &[], sights, terrain, support_m)
+        tallies(points, mask, &[], sights, terrain, support_m, true)
             .iter()
             .map(|t| t.denied)
             .collect()
@@ -495,14 +565,23 @@ mod tests {
         let facing = own_surface_normals(&points, &observers, 2.0, 0.9, 4.0).unwrap();
         assert!(facing[..wall].iter().all(Option::is_some));
         assert!(facing[wall..].iter().all(Option::is_none));
-        let keep = confirmed(&points, &mask, &facing, &sights, &open_ground(), 2.0, 2);
+        let keep = confirmed(
+            &points,
+            &mask,
+            &facing,
+            &sights,
+            &open_ground(),
+            2.0,
+            true,
+            2,
+        );
         assert!(
             keep[..wall].iter().all(|&k| k),
             "the wall is denied from behind"
         );
         assert!(keep[wall..].iter().all(|&k| !k), "the lone cluster stands");
         // Without the facing every point is denied twice.
-        let blind = confirmed(&points, &mask, &[], &sights, &open_ground(), 2.0, 2);
+        let blind = confirmed(&points, &mask, &[], &sights, &open_ground(), 2.0, true, 2);
         assert!(blind.iter().all(|&k| !k));
         // Two more pairs in front of the wall that detected nothing deny it.
         for (rx, tx) in [
@@ -511,8 +590,68 @@ mod tests {
         ] {
             sights.push(sight(rx, tx, None));
         }
-        let keep = confirmed(&points, &mask, &facing, &sights, &open_ground(), 2.0, 2);
+        let keep = confirmed(
+            &points,
+            &mask,
+            &facing,
+            &sights,
+            &open_ground(),
+            2.0,
+            true,
+            2,
+        );
         assert!(keep.iter().all(|&k| !k), "pairs in front of a wall deny it");
+    }
+
+    #[test]
+    fn a_pair_does_not_confirm_what_lies_behind_a_surface_on_its_own_legs() {
+        // A wall x = 5 (12 × 8 m, 0.5 m lattice) that the east pair imaged, and that pair's
+        // detections at q behind the wall (x = 0) and at r on the wall. Its legs to q cross the
+        // wall: it cannot have imaged q, so q has no confirmation and is dropped; r stands.
+        let (q, r) = (Vec3::new(0.0, 0.0, 3.0), Vec3::new(5.0, 0.0, 3.0));
+        let mut points = vec![q];
+        points.extend((0..24).flat_map(|i| {
+            (0..16).map(move |k| Vec3::new(5.0, 0.5 * i as f32 - 6.0, 0.5 * k as f32))
+        }));
+        let east = (Vec3::new(50.0, 5.0, 20.0), Vec3::new(15.0, 5.0, 1.5));
+        let sights = [sight(east.0, east.1, None)];
+        let mask = vec![1u64; points.len()];
+        let observers = vec![vec![east.1, east.0]; points.len()];
+        let facing = own_surface_normals(&points, &observers, 2.0, 0.9, 4.0).unwrap();
+        let t = tallies(&points, &mask, &facing, &sights, &open_ground(), 2.0, true);
+        assert_eq!(t[0].confirmed, 0, "the wall stands between the pair and q");
+        let on_wall = points.iter().position(|&p| p == r).unwrap();
+        assert_eq!(t[on_wall].confirmed, 1, "r is on the wall the pair sees");
+        let keep = confirmed(
+            &points,
+            &mask,
+            &facing,
+            &sights,
+            &open_ground(),
+            2.0,
+            true,
+            2,
+        );
+        assert!(!keep[0] && keep[on_wall]);
+    }
+
+    #[test]
+    fn a_grazing_leg_over_a_roof_does_not_hide_the_roof_from_its_own_pair() {
+        // A flat roof z = 8 (12 × 12 m, 0.5 m lattice) seen from a panel 60 m away at 20 m
+        // (a 11° grazing leg) and a UAV above: every roof point keeps its confirmation.
+        let points: Vec<Vec3> = (0..24)
+            .flat_map(|i| {
+                (0..24).map(move |j| Vec3::new(0.5 * i as f32 - 6.0, 0.5 * j as f32 - 6.0, 8.0))
+            })
+            .collect();
+        let pair = (Vec3::new(60.0, 0.0, 20.0), Vec3::new(0.0, -6.0, 40.0));
+        let sights = [sight(pair.0, pair.1, None)];
+        let mask = vec![1u64; points.len()];
+        let observers = vec![vec![pair.1, pair.0]; points.len()];
+        let facing = own_surface_normals(&points, &observers, 2.0, 0.9, 4.0).unwrap();
+        assert!(facing.iter().all(Option::is_some));
+        let t = tallies(&points, &mask, &facing, &sights, &open_ground(), 2.0, true);
+        assert!(t.iter().all(|t| t.confirmed == 1));
     }
 
     #[test]
@@ -543,13 +682,13 @@ mod tests {
         observers[0] = vec![west.1, west.0];
         let facing = own_surface_normals(&points, &observers, 2.0, 0.9, 4.0).unwrap();
         assert!(facing[0].is_none() && facing[1..].iter().all(Option::is_some));
-        let with = tallies(&points, &mask, &facing, &sights, &open_ground(), 2.0);
+        let with = tallies(&points, &mask, &facing, &sights, &open_ground(), 2.0, true);
         assert_eq!(
             with[0].denied, 0,
             "legs through a wall one pair imaged reach q"
         );
         // Without the facing the wall is one pair's points, which block nothing.
-        let without = tallies(&points, &mask, &[], &sights, &open_ground(), 2.0);
+        let without = tallies(&points, &mask, &[], &sights, &open_ground(), 2.0, true);
         assert_eq!(without[0].denied, 3);
         // A blob of one cell where the wall was (a 3 × 3 × 3 block of lattice points) has no
         // surface of its own and hides nothing.
@@ -569,6 +708,7 @@ mod tests {
             &sights,
             &open_ground(),
             2.0,
+            true,
         );
         assert_eq!(t[0].denied, 3);
     }
@@ -587,7 +727,7 @@ mod tests {
         let p = Vec3::new(0.0, 0.0, 1.0);
         let sights = around();
         // Pairs 0 and 1 kept it; pair 2 sees the place and detected nothing.
-        let t = tallies(&[p], &[0b11], &[], &sights, &open_ground(), 1.5);
+        let t = tallies(&[p], &[0b11], &[], &sights, &open_ground(), 1.5, true);
         assert_eq!(
             t,
             vec![Tally {
@@ -596,7 +736,7 @@ mod tests {
             }]
         );
         assert_eq!(
-            confirmed(&[p], &[0b11], &[], &sights, &open_ground(), 1.5, 2),
+            confirmed(&[p], &[0b11], &[], &sights, &open_ground(), 1.5, true, 2),
             vec![true]
         );
         // Six pairs around it: two kept it, the other four see it and detected nothing — as
@@ -609,20 +749,20 @@ mod tests {
             })
             .collect();
         let six: Vec<PairSight<'_>> = ring.iter().map(|&(rx, tx)| sight(rx, tx, None)).collect();
-        let keep = confirmed(&[p], &[0b11], &[], &six, &open_ground(), 1.5, 2);
+        let keep = confirmed(&[p], &[0b11], &[], &six, &open_ground(), 1.5, true, 2);
         assert_eq!(keep, vec![false]);
         // Three deniers (the sixth pair kept it too): kept.
-        let keep = confirmed(&[p], &[0b100011], &[], &six, &open_ground(), 1.5, 2);
+        let keep = confirmed(&[p], &[0b100011], &[], &six, &open_ground(), 1.5, true, 2);
         assert_eq!(keep, vec![true]);
-        let keep = confirmed(&[p], &[0b111], &[], &six, &open_ground(), 1.5, 2);
+        let keep = confirmed(&[p], &[0b111], &[], &six, &open_ground(), 1.5, true, 2);
         assert_eq!(keep, vec![true]);
         // The decision that stops tracing legs once the point's fate is known is the full
         // count's, for every set of keepers and every need.
         let masks: Vec<u64> = (1..64).collect();
         let points = vec![p; masks.len()];
-        let full = tallies(&points, &masks, &[], &six, &open_ground(), 1.5);
+        let full = tallies(&points, &masks, &[], &six, &open_ground(), 1.5, true);
         for need in 1..=4 {
-            let quick = confirmed(&points, &masks, &[], &six, &open_ground(), 1.5, need);
+            let quick = confirmed(&points, &masks, &[], &six, &open_ground(), 1.5, true, need);
             let want: Vec<bool> = full.iter().map(|&t| kept(t, need)).collect();
             assert_eq!(quick, want, "need {need}");
         }
@@ -636,7 +776,7 @@ mod tests {
         // Pair 0 kept it; pair 1 detected something there that is its terrain's echo; pair 2
         // sees it and detected nothing: one denial against one confirmation keeps it.
         sights[1].ground = Some(&echo);
-        let t = tallies(&[p], &[1], &[], &sights, &open_ground(), 1.5);
+        let t = tallies(&[p], &[1], &[], &sights, &open_ground(), 1.5, true);
         assert_eq!(
             t,
             vec![Tally {
@@ -647,12 +787,12 @@ mod tests {
         // The same detection counted as pair 1's own would confirm it.
         sights[1].ground = None;
         sights[1].detections = Some(&echo);
-        let t = tallies(&[p], &[1], &[], &sights, &open_ground(), 1.5);
+        let t = tallies(&[p], &[1], &[], &sights, &open_ground(), 1.5, true);
         assert_eq!(t[0].confirmed, 2);
         // Nothing of pair 1 there: it denies, and with pair 2 the point is dropped.
         sights[1].detections = None;
         assert_eq!(
-            confirmed(&[p], &[1], &[], &sights, &open_ground(), 1.5, 2),
+            confirmed(&[p], &[1], &[], &sights, &open_ground(), 1.5, true, 2),
             vec![false]
         );
     }
@@ -688,7 +828,7 @@ mod tests {
         ];
         // Pair 1 confirms (1 m away): the point is not pair 0's alone; pair 3 denies (its point
         // is 5 m off), pair 2 cannot see it; one denial against two confirmations keeps it.
-        let t = tallies(&[p], &[1], &[], &sights, &open_ground(), 1.5);
+        let t = tallies(&[p], &[1], &[], &sights, &open_ground(), 1.5, true);
         assert_eq!(
             t,
             vec![Tally {
@@ -697,7 +837,7 @@ mod tests {
             }]
         );
         assert_eq!(
-            confirmed(&[p], &[1], &[], &sights, &open_ground(), 1.5, 2),
+            confirmed(&[p], &[1], &[], &sights, &open_ground(), 1.5, true, 2),
             vec![true]
         );
         // Without pair 1's detection: pair 1 denies, pair 2 cannot see it, pair 3 denies (its
@@ -733,14 +873,14 @@ mod tests {
         let sights = around();
         let d = denials(&[p, q], &[1, 1], &sights, &open_ground(), 1.5);
         assert_eq!(d, vec![2, 2]);
-        let keep = confirmed(&[p, q], &[1, 1], &[], &sights, &open_ground(), 1.5, 2);
+        let keep = confirmed(&[p, q], &[1, 1], &[], &sights, &open_ground(), 1.5, true, 2);
         assert_eq!(keep, vec![false, false]);
         // p as a surface point (three pairs kept it) stays; q is still denied by pairs 1 and 2
         // (pair 0, whose legs p would block, kept q).
-        let keep = confirmed(&[p, q], &[7, 1], &[], &sights, &open_ground(), 1.5, 2);
+        let keep = confirmed(&[p, q], &[7, 1], &[], &sights, &open_ground(), 1.5, true, 2);
         assert_eq!(keep, vec![true, false]);
         // Nothing is dropped when no denial is needed to keep a point.
-        let keep = confirmed(&[p, q], &[1, 1], &[], &sights, &open_ground(), 1.5, 0);
+        let keep = confirmed(&[p, q], &[1, 1], &[], &sights, &open_ground(), 1.5, true, 0);
         assert_eq!(keep, vec![true, true]);
     }
 

@@ -70,6 +70,7 @@ use super::detection::{
     effective_looks, image_false_alarm_probability, layer_looks_per_voxel, layer_window,
     local_mean, pareto_factor, CfarFactors, NadirBand,
 };
+use super::sidelobes::{sidelobes, PairPsf};
 use super::world::World;
 use crate::echo::noise::ComplexGaussian;
 use crate::echo::{EchoConfig, EchoError, EchoSynth, Noise, ScattererSet, VisibilityCache};
@@ -181,6 +182,9 @@ pub struct PairStats {
     /// Per-voxel false-alarm probability of the fine pass's detection test
     /// (`imaging.false_alarms_per_image` over its resolution cells; 0 without the clutter test).
     pub false_alarm_probability: f64,
+    /// Detections in the region dropped as sidelobes of a stronger echo of the same image
+    /// (`imaging.sidelobe_test`, [`super::sidelobes`]).
+    pub sidelobes: usize,
 }
 
 /// Per-pair constants derived from the scenario.
@@ -595,6 +599,47 @@ pub fn survey_pair(sc: &Scenario, world: &World, plan: &PairPlan) -> Result<usiz
 /// [`ImagingError`] from has-dsp or echo synthesis (bad geometry, lengths).
 pub fn image_pair(
     sc: &Scenario,
+    world: &World,
+    plan: &PairPlan,
+    opts: RunOptions,
+    progress: &(dyn Fn(u64, u64) + Sync),
+) -> Result<PairImage, ImagingError> {
+    let guard_m = if sc.imaging.guard_band {
+        region_guard_m(sc, plan)
+    } else {
+        0.0
+    };
+    image_guarded(
+        &sc.with_region_grown(guard_m),
+        sc,
+        world,
+        plan,
+        opts,
+        progress,
+    )
+}
+
+/// The width of the band a pair images past the region, metres: the coarser of its range and
+/// panel's horizontal cross-range resolution at the region's centre, plus one coarse voxel. An
+/// echo outside the region lays its main lobe into it no farther than that; imaged, it is found
+/// where it peaks and explains its image inside ([`super::sidelobes`]).
+pub(crate) fn region_guard_m(sc: &Scenario, plan: &PairPlan) -> f32 {
+    let (lo, hi) = sc.region();
+    let (r, _, xh, _) = pair_resolution_m(
+        (lo + hi) * 0.5,
+        &sc.array(plan.bs),
+        &sc.aperture(plan.aperture, plan.positions),
+        sc.wavelength_m() as f32,
+        (sc.radar.bandwidth_mhz * 1e6) as f32,
+    );
+    r.max(xh) + sc.imaging.coarse_voxel_m
+}
+
+/// [`image_pair`] over the region grown by the guard band (`sc`), keeping only the detections
+/// in `region`'s own region.
+fn image_guarded(
+    sc: &Scenario,
+    region: &Scenario,
     world: &World,
     plan: &PairPlan,
     opts: RunOptions,
@@ -1042,7 +1087,38 @@ pub fn image_pair(
     } else {
         Vec::new()
     };
-    let (mut points, intensity) = extract_points(sc, &bricks, &img, &detected, &geo, &nadir_bands);
+    let Extracted {
+        mut points,
+        mut intensity,
+        outside,
+        outside_intensity,
+    } = extract_points(sc, region, &bricks, &img, &detected, &geo, &nadir_bands);
+    if im.sidelobe_test {
+        let psf = PairPsf {
+            tx: &tx_fine,
+            rx: &rx_fine,
+            pulse: src.synth.kernel(),
+            bin_m: geo.dr_m as f32,
+            wavelength_m: sc.wavelength_m() as f32,
+            array: &geo.array,
+            aperture: &geo.aperture,
+            bandwidth_hz: (sc.radar.bandwidth_mhz * 1e6) as f32,
+            range_main_lobe_cells: sc
+                .window()
+                .ok()
+                .and_then(|w| w.main_lobe_half_width_cells())
+                .unwrap_or(1.0) as f32,
+        };
+        let lobes = sidelobes(&psf, &points, &intensity, &outside, &outside_intensity);
+        stats.sidelobes = lobes.iter().filter(|&&l| l).count();
+        (points, intensity) = points
+            .into_iter()
+            .zip(intensity)
+            .zip(lobes)
+            .filter(|(_, l)| !l)
+            .map(|(pi, _)| pi)
+            .unzip();
+    }
     if im.skirt_centroid {
         points = skirt_to_centroid(
             &points,
@@ -1640,12 +1716,13 @@ fn main_lobe_guard_m(sc: &Scenario) -> f32 {
 /// zone (`imaging.direct_path_guard`) and its ends' ground bands (`imaging.nadir_guard`).
 fn extract_points(
     sc: &Scenario,
+    region: &Scenario,
     bricks: &[Brick],
     img: &[Complex32],
     detected: &[bool],
     geo: &PairGeometry,
     nadir_bands: &[NadirBand],
-) -> (Vec<Vec3>, Vec<f32>) {
+) -> Extracted {
     let (local_max, alias_test) = (sc.imaging.local_max, sc.imaging.alias_test);
     let lambda = sc.wavelength_m() as f32;
     let bandwidth_hz = (sc.radar.bandwidth_mhz * 1e6) as f32;
@@ -1692,8 +1769,8 @@ fn extract_points(
             .iter()
             .any(|&t| has_dsp::geometry::bistatic_range(p, t, rx_c) - t.distance(rx_c) < guard)
     };
-    let mut points = Vec::new();
-    let mut intensity = Vec::new();
+    let (mut points, mut intensity) = (Vec::new(), Vec::new());
+    let (mut outside, mut outside_intensity) = (Vec::new(), Vec::new());
     for b in bricks {
         let g = b.bp.grid();
         for i in 0..b.bp.voxels() {
@@ -1702,8 +1779,7 @@ fn extract_points(
                 continue;
             }
             let p = g.voxel_world(i).unwrap_or(g.origin);
-            if !sc.in_region(p)
-                || in_direct_zone(p)
+            if in_direct_zone(p)
                 || !in_front_of_panel(&geo.array, p)
                 || nadir_bands.iter().any(|b| b.covers(p))
             {
@@ -1725,16 +1801,37 @@ fn extract_points(
                     continue;
                 }
             }
-            points.push(p);
-            intensity.push(a);
+            if region.in_region(p) {
+                points.push(p);
+                intensity.push(a);
+            } else {
+                outside.push(p);
+                outside_intensity.push(a);
+            }
         }
     }
-    // Relative to the strongest detection (fusion weights).
+    // Relative to the strongest detection in the region (fusion weights).
     let peak = intensity.iter().copied().fold(0.0f32, f32::max);
     if peak > 0.0 {
         intensity.iter_mut().for_each(|i| *i /= peak);
+        outside_intensity.iter_mut().for_each(|i| *i /= peak);
     }
-    (points, intensity)
+    Extracted {
+        points,
+        intensity,
+        outside,
+        outside_intensity,
+    }
+}
+
+/// A pair's detections ([`extract_points`]): those in the region, and those of the imaged
+/// lattice outside it, which only serve as the sources of sidelobes
+/// ([`super::sidelobes`]). Intensities `|I|` relative to the strongest in the region.
+struct Extracted {
+    points: Vec<Vec3>,
+    intensity: Vec<f32>,
+    outside: Vec<Vec3>,
+    outside_intensity: Vec<f32>,
 }
 
 /// The grating-lobe aliases of voxel `p` for the pair's panel and the aperture's centre

@@ -12,6 +12,7 @@ pub mod finer_height;
 pub mod hidden_roofs;
 pub mod outline_walls;
 pub mod run;
+pub mod sidelobes;
 pub mod surface;
 pub mod terrain_echo;
 pub mod valleys;

@@ -150,7 +150,16 @@ struct MemoryParts {
 }
 
 fn memory_parts(sc: &Scenario) -> MemoryParts {
-    let (lo, hi) = sc.region();
+    // The lattice of the region with the widest guard band any pairing images past it.
+    let guard = if sc.imaging.guard_band {
+        every_pairing(sc)
+            .iter()
+            .map(|p| super::driver::region_guard_m(sc, p))
+            .fold(0.0f32, f32::max)
+    } else {
+        0.0
+    };
+    let (lo, hi) = sc.with_region_grown(guard).region();
     let d = ((hi - lo) / sc.imaging.voxel_m).floor() + Vec3::ONE;
     let voxels = (d.x as f64 * d.y as f64 * d.z as f64).min(usize::MAX as f64) as usize;
     let (frame_bytes, pair) = every_pairing(sc)
@@ -734,6 +743,7 @@ pub fn confirm(
         &sights,
         &world.terrain.scene,
         support,
+        sc.imaging.own_sight_test,
         need,
     );
     let unconfirmed = keep.iter().filter(|&&k| !k).count();

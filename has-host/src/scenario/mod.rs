@@ -304,6 +304,21 @@ pub struct ImagingSpec {
     /// echoes ([`crate::imaging::terrain_echo`]).
     #[serde(default = "default_true")]
     pub terrain_echo_test: bool,
+    /// A pair confirms a fused point only when neither of its legs crosses a surface patch of the
+    /// cloud on the way to it: a pair cannot image what it cannot see
+    /// ([`crate::imaging::confirmation`]).
+    #[serde(default = "default_true")]
+    pub own_sight_test: bool,
+    /// Drop a pair's detections that are no stronger than the sidelobe a stronger echo of its
+    /// own image puts there, by the pair's point-spread function
+    /// ([`crate::imaging::sidelobes`]).
+    #[serde(default = "default_true")]
+    pub sidelobe_test: bool,
+    /// Image a band past the region (the pair's coarsest horizontal resolution cell) whose
+    /// detections serve only as the sources of the sidelobe test: what stands outside the
+    /// region is judged where its echo peaks ([`crate::imaging::driver`]).
+    #[serde(default = "default_true")]
+    pub guard_band: bool,
     /// Drop fused points that a finer pair places at another height: copies of a roof (a
     /// surface crossing the vertical) within the vertical resolution of the coarse pairs that
     /// detected them, which the finer pair resolves from its own placement
@@ -1024,6 +1039,76 @@ impl Scenario {
     }
 }
 
+impl Scenario {
+    /// The scenario with its imaging region grown outward by `guard_m` horizontally (its height
+    /// range unchanged): the box's sides moved out by it, and the `region_polygon` offset
+    /// outward edge by edge (mitred corners, each at most `2·guard_m` from its vertex). An offset
+    /// polygon that is not simple or does not hold every vertex of the original gives way to the
+    /// grown box. The imaging driver images this guard band past the region so that an echo just
+    /// outside is imaged where it peaks, and its image inside the region can be judged against it
+    /// ([`crate::imaging::sidelobes`]); only the region's own detections are kept.
+    pub(crate) fn with_region_grown(&self, guard_m: f32) -> Scenario {
+        let mut out = self.clone();
+        if !(guard_m.is_finite() && guard_m > 0.0) {
+            return out;
+        }
+        let g = Vec3::new(guard_m, guard_m, 0.0);
+        let (mut lo, mut hi) = (self.region().0 - g, self.region().1 + g);
+        out.imaging.region_polygon = self.imaging.region_polygon.as_ref().and_then(|poly| {
+            let grown = offset_polygon(poly, guard_m)?;
+            for v in &grown {
+                lo = lo.min(Vec3::new(v[0], v[1], lo.z));
+                hi = hi.max(Vec3::new(v[0], v[1], hi.z));
+            }
+            Some(grown)
+        });
+        out.imaging.region_min = lo.into();
+        out.imaging.region_max = hi.into();
+        out
+    }
+}
+
+/// `poly` offset outward by `d` (module item [`Scenario::with_region_grown`]); `None` when the
+/// result is not a simple polygon holding every vertex of `poly`.
+fn offset_polygon(poly: &[[f32; 2]], d: f32) -> Option<Vec<[f32; 2]>> {
+    let n = poly.len();
+    if n < 3 {
+        return None;
+    }
+    // Outward normal of edge a→b: to the right of the edge for a counter-clockwise polygon.
+    let ccw = polygon_area(poly) > 0.0;
+    let normal = |a: [f32; 2], b: [f32; 2]| {
+        let e = glam::Vec2::new(b[0] - a[0], b[1] - a[1]).normalize_or_zero();
+        if ccw {
+            glam::Vec2::new(e.y, -e.x)
+        } else {
+            glam::Vec2::new(-e.y, e.x)
+        }
+    };
+    let grown: Vec<[f32; 2]> = (0..n)
+        .map(|i| {
+            let (a, v, b) = (poly[(i + n - 1) % n], poly[i], poly[(i + 1) % n]);
+            let (n1, n2) = (normal(a, v), normal(v, b));
+            let miter = (n1 + n2) / (1.0 + n1.dot(n2)).max(1e-6);
+            let step = miter * d;
+            let step = if step.length() > 2.0 * d {
+                step.normalize_or_zero() * 2.0 * d
+            } else {
+                step
+            };
+            [v[0] + step.x, v[1] + step.y]
+        })
+        .collect();
+    let simple = (0..n).all(|i| {
+        (i + 2..n).all(|j| {
+            (i == 0 && j == n - 1)
+                || !segments_cross(grown[i], grown[(i + 1) % n], grown[j], grown[(j + 1) % n])
+        })
+    });
+    let holds = poly.iter().all(|v| point_in_polygon(&grown, v[0], v[1]));
+    (simple && holds && grown.iter().flatten().all(|c| c.is_finite())).then_some(grown)
+}
+
 /// Signed area of a polygon (shoelace), m².
 fn polygon_area(poly: &[[f32; 2]]) -> f32 {
     (0..poly.len())
@@ -1065,6 +1150,48 @@ mod tests {
 
     fn factory() -> Scenario {
         Scenario::from_toml_str(include_str!("../../../fixtures/factory.toml")).unwrap()
+    }
+
+    #[test]
+    fn a_grown_region_holds_the_region_and_a_band_of_the_guard_around_it() {
+        // An L-shaped polygon region (a reflex corner at (10, 10)), grown by 2 m.
+        let mut sc = factory();
+        sc.imaging.region_min = [0.0, 0.0, 0.5];
+        sc.imaging.region_max = [20.0, 20.0, 16.0];
+        sc.imaging.region_polygon = Some(vec![
+            [0.0, 0.0],
+            [20.0, 0.0],
+            [20.0, 10.0],
+            [10.0, 10.0],
+            [10.0, 20.0],
+            [0.0, 20.0],
+        ]);
+        let g = sc.with_region_grown(2.0);
+        let at = |x: f32, y: f32| Vec3::new(x, y, 5.0);
+        for p in [
+            at(1.0, 1.0),
+            at(19.0, 9.0),
+            at(-1.9, 5.0),
+            at(15.0, 11.9),
+            at(21.9, -1.5),
+        ] {
+            assert!(g.in_region(p), "{p} in the grown region");
+        }
+        for p in [
+            at(-2.1, 5.0),
+            at(15.0, 12.1),
+            at(15.0, 15.0),
+            at(5.0, 22.1),
+            at(5.0, 5.0 + 20.0),
+        ] {
+            assert!(!g.in_region(p), "{p} outside the grown region");
+        }
+        assert!(g.in_region(at(5.0, 5.0)) && !sc.in_region(at(15.0, 11.0)));
+        // Heights are not grown; a box region grows its sides.
+        assert!(!g.in_region(Vec3::new(5.0, 5.0, 16.5)));
+        sc.imaging.region_polygon = None;
+        let g = sc.with_region_grown(2.0);
+        assert!(g.in_region(at(-1.9, 21.9)) && !g.in_region(at(-2.1, 5.0)));
     }
 
     #[test]

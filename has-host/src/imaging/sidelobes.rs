@@ -1,0 +1,369 @@
+//! A pair's detections that are the sidelobes of a stronger echo of its own image.
+//!
+//! **Why.** The detection test ([`super::detection`]) holds each voxel against the bare terrain's
+//! clutter and the incoherent floor `P(v)`: the power the range cells through `v` would give if
+//! their echoes added with random phases. A point echo's coherent image does not stay under that
+//! floor: with `N` (transmit position, receive element) terms the peak is `N²|a|²` and the floor
+//! `N|a|²`, so the floor lies `10 log₁₀ N` (≈ 30 dB for a thinned pair) under the peak, while the
+//! sidelobes of the panel's aperture along its elevation — the direction a pair resolves worst,
+//! 3.6 m for a 0.5 m tall panel at 60 m — fall only as `sinc²` (−13 dB, then −18, −21, …, and a
+//! jittered thinned panel has a floor of its own near `1/N_elements`). An echo 20–30 dB above the
+//! rest of the site, such as a metal roof's, therefore lays a column of sidelobes over the
+//! terrain's clutter and over `P`: a plume of detections standing on the roof.
+//!
+//! **The test.** The image a pair forms of a point echo at `u` is its point-spread function:
+//! `I_u(v) = a Σ_{t,e} p(Δr_{t,e}/δr) e^{j2πΔr_{t,e}/λ}`, over the pair's transmit positions `t`
+//! and receive elements `e`, with `Δr_{t,e} = (|v − t| + |v − e|) − (|u − t| + |u − e|)` and `p`
+//! the compressed pulse on bins of `δr` (the profile the back-projection reads). Normalised to its
+//! peak, `ρ_u(v) = |I_u(v)|² / |I_u(u)|²`. A detection `v` is the sidelobe of a stronger detection
+//! `u` of the same pair when it lies outside `u`'s main lobe — at least one resolution cell away in
+//! the pair's resolution metric, `Σ_i ((v − u)·â_i / δ_i)² ≥ 1` over the range and cross-range
+//! directions and resolutions of [`crate::sensors::pair_resolution_axes`], i.e. past the first
+//! null of a uniform aperture — and its power is no more than what `u`'s point-spread function
+//! puts there: `|I(v)|² ≤ |I(u)|²·ρ_u(v)`. (The range cell counts with the pulse's main lobe,
+//! two cells `c/B` for a Hann window; the apertures are untapered, their first null one cell.) A surface of its own at `v` adds its echo to that
+//! sidelobe and stands above it; what the sidelobe alone explains is not evidence of anything at
+//! `v`. The reference is the echo that causes the sidelobe, not the noise or the terrain, so the
+//! test holds for any surface brightness, metal included; and it uses the pair's own sensors, so
+//! it needs no parameter.
+//!
+//! **What stands outside the region.** The driver images a guard band past the region
+//! ([`crate::imaging::driver`]), and its detections there are sources too: the sidelobes a
+//! neighbour's facade lays into the region are judged against that facade. For such a source the
+//! main lobe counts as well — within its resolution cell the pair cannot separate an echo inside
+//! the region from the stronger one outside, and the stronger is where the echo comes from (a
+//! wall of the region itself keeps its own peaks, which its image there does not fall below).
+//!
+//! Cost: `Δr` is bounded by its value between the apertures' centres and the apertures' extent
+//! (`|Δr_{t,e} − Δr_c| ≤ |t − t_c|·2 + |e − e_c|·2`), so the full sum is formed only for pairs
+//! of detections on nearly the same range shell, which is where a pulse-compressed image puts
+//! sidelobes at all.
+//!
+//! Units: metres, world frame; intensities `|I|` on any common scale.
+
+use glam::Vec3;
+use num_complex::Complex32;
+use rayon::prelude::*;
+
+use crate::echo::PulseKernel;
+use crate::sensors::{pair_resolution_axes, PlanarArray, VirtualAperture};
+
+/// The pair's imaging geometry as the point-spread function needs it.
+pub struct PairPsf<'a> {
+    /// Transmit positions the image summed over, metres.
+    pub tx: &'a [Vec3],
+    /// Receive elements the image summed over, metres.
+    pub rx: &'a [Vec3],
+    /// The compressed pulse on the profile's bins.
+    pub pulse: &'a PulseKernel,
+    /// Profile bin spacing (bistatic path), metres.
+    pub bin_m: f32,
+    /// Carrier wavelength, metres.
+    pub wavelength_m: f32,
+    /// The panel and track, for the resolution metric.
+    pub array: &'a PlanarArray,
+    /// The pair's virtual aperture.
+    pub aperture: &'a VirtualAperture,
+    /// Signal bandwidth, Hz.
+    pub bandwidth_hz: f32,
+    /// The compressed pulse's main-lobe half-width in range cells `c/B` (first null; Hann: 2).
+    pub range_main_lobe_cells: f32,
+}
+
+/// The pulse sampled finely for fast lookups: `p(x)` at `x = k/STEPS` bins.
+struct PulseTable {
+    values: Vec<Complex32>,
+    half_bins: f32,
+}
+
+impl PulseTable {
+    const STEPS: f32 = 32.0;
+
+    fn new(pulse: &PulseKernel) -> PulseTable {
+        let half = pulse.half_width_bins() as f32;
+        let n = (2.0 * half * Self::STEPS) as usize + 1;
+        let values = (0..n)
+            .map(|k| pulse.eval((k as f32 / Self::STEPS - half) as f64))
+            .collect();
+        PulseTable {
+            values,
+            half_bins: half,
+        }
+    }
+
+    /// `p(x)` at `x` bins, linearly interpolated; 0 beyond the pulse's reach.
+    fn at(&self, x: f32) -> Complex32 {
+        let u = (x + self.half_bins) * Self::STEPS;
+        if !(u >= 0.0) {
+            return Complex32::new(0.0, 0.0);
+        }
+        let i = u as usize;
+        if i + 1 >= self.values.len() {
+            return Complex32::new(0.0, 0.0);
+        }
+        let f = u - i as f32;
+        self.values[i] * (1.0 - f) + self.values[i + 1] * f
+    }
+}
+
+impl PairPsf<'_> {
+    /// `ρ_u(v)`: the pair's point-spread function of an echo at `u`, evaluated at `v`, in power
+    /// relative to its peak (module docs). 0 where `v` lies past the pulse's reach in every
+    /// term.
+    pub fn relative_power(&self, u: Vec3, v: Vec3) -> f32 {
+        let table = PulseTable::new(self.pulse);
+        self.relative_power_with(&table, u, v, &mut Vec::new())
+    }
+
+    fn centres(&self) -> (Vec3, Vec3, f32) {
+        let mean = |s: &[Vec3]| s.iter().copied().sum::<Vec3>() / s.len().max(1) as f32;
+        let (tc, ec) = (mean(self.tx), mean(self.rx));
+        let spread = |s: &[Vec3], c: Vec3| s.iter().map(|p| p.distance(c)).fold(0.0f32, f32::max);
+        (tc, ec, 2.0 * (spread(self.tx, tc) + spread(self.rx, ec)))
+    }
+
+    fn relative_power_with(
+        &self,
+        table: &PulseTable,
+        u: Vec3,
+        v: Vec3,
+        b: &mut Vec<(f32, Complex32)>,
+    ) -> f32 {
+        let n = self.tx.len() * self.rx.len();
+        if n == 0 {
+            return 0.0;
+        }
+        let inv_bin = 1.0 / self.bin_m;
+        let phasor = |d: f32| {
+            // The phase of a path difference of metres to hundreds of wavelengths: reduce in
+            // cycles first so f32 keeps its precision.
+            let cycles = d / self.wavelength_m;
+            let (s, c) = (std::f32::consts::TAU * (cycles - cycles.round())).sin_cos();
+            Complex32::new(c, s)
+        };
+        b.clear();
+        b.extend(self.rx.iter().map(|&e| {
+            let d = v.distance(e) - u.distance(e);
+            (d, phasor(d))
+        }));
+        let p0 = table.at(0.0).norm();
+        let mut sum = Complex32::new(0.0, 0.0);
+        for &t in self.tx {
+            let a = v.distance(t) - u.distance(t);
+            let mut inner = Complex32::new(0.0, 0.0);
+            for &(d, ph) in b.iter() {
+                let p = table.at((a + d) * inv_bin);
+                if p.re != 0.0 || p.im != 0.0 {
+                    inner += p * ph;
+                }
+            }
+            sum += inner * phasor(a);
+        }
+        sum.norm_sqr() / (n as f32 * p0).powi(2).max(f32::MIN_POSITIVE)
+    }
+
+    /// Whether `v` lies at least one resolution cell from `u` in the pair's resolution metric
+    /// at `u` (module docs): past the main lobe of `u`'s point-spread function.
+    fn outside_main_lobe(&self, u: Vec3, v: Vec3) -> bool {
+        let d = v - u;
+        let axes = pair_resolution_axes(
+            u,
+            self.array,
+            self.aperture,
+            self.wavelength_m,
+            self.bandwidth_hz,
+        );
+        // The range axis comes first; its main lobe is the window's, the apertures' are
+        // untapered (first null at one cell).
+        axes.iter()
+            .enumerate()
+            .map(|(i, &(a, delta))| {
+                let lobe = if i == 0 {
+                    self.range_main_lobe_cells
+                } else {
+                    1.0
+                };
+                (d.dot(a) / (lobe * delta).max(1e-6)).powi(2)
+            })
+            .sum::<f32>()
+            >= 1.0
+    }
+}
+
+/// Which of `points` (intensities `intensity`, `|I|`) are sidelobes of a stronger detection among
+/// `points` and `sources` (detections of the same image outside the region, intensities
+/// `source_intensity` on the same scale): `true` marks a sidelobe (module docs). Deterministic:
+/// each point's answer depends only on the inputs.
+pub fn sidelobes(
+    psf: &PairPsf<'_>,
+    points: &[Vec3],
+    intensity: &[f32],
+    sources: &[Vec3],
+    source_intensity: &[f32],
+) -> Vec<bool> {
+    if psf.tx.is_empty() || psf.rx.is_empty() {
+        return vec![false; points.len()];
+    }
+    let table = PulseTable::new(psf.pulse);
+    let (tc, ec, spread) = psf.centres();
+    let reach_m = table.half_bins * psf.bin_m + spread;
+    // Every echo, strongest first.
+    let mut all: Vec<(Vec3, f32, bool)> = points
+        .iter()
+        .zip(intensity)
+        .map(|(&p, &a)| (p, a, false))
+        .chain(
+            sources
+                .iter()
+                .zip(source_intensity)
+                .map(|(&p, &a)| (p, a, true)),
+        )
+        .filter(|(p, a, _)| p.is_finite() && a.is_finite())
+        .collect();
+    all.sort_by(|a, b| b.1.total_cmp(&a.1));
+    let range_c = |p: Vec3| p.distance(tc) + p.distance(ec);
+    let shells: Vec<f32> = all.iter().map(|&(p, _, _)| range_c(p)).collect();
+    points
+        .par_iter()
+        .zip(intensity.par_iter())
+        .map_init(Vec::new, |scratch, (&v, &a)| {
+            if !(v.is_finite() && a.is_finite()) {
+                return false;
+            }
+            let rv = range_c(v);
+            let a2 = a * a;
+            all.iter()
+                .zip(&shells)
+                .take_while(|((_, b, _), _)| *b > a)
+                .any(|(&(u, b, outside), &ru)| {
+                    (rv - ru).abs() <= reach_m
+                        && (outside || psf.outside_main_lobe(u, v))
+                        && a2 <= b * b * psf.relative_power_with(&table, u, v, scratch)
+                })
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::echo::EchoConfig;
+
+    const LAMBDA: f32 = 0.029_979_246;
+
+    /// The quick preset's pulse: 400 MHz, 1024 subcarriers, Hann, zero padding 2.
+    fn hann_pulse() -> (PulseKernel, f32) {
+        let cfg = EchoConfig::new(10e9, 400e6, 1024, 2)
+            .with_window(has_dsp::window::Window::Hann)
+            .unwrap();
+        (
+            PulseKernel::new(&cfg).unwrap(),
+            has_dsp::ofdm::bin_spacing_m(400e6, 2) as f32,
+        )
+    }
+
+    /// A 16 × 16 λ/2 panel at (60, 0, z0) facing −x, and a transmitter on the plane z = z0.
+    fn geometry(z0: f32) -> (PlanarArray, VirtualAperture) {
+        let array = PlanarArray {
+            centre: Vec3::new(60.0, 0.0, z0),
+            boresight_az_rad: std::f32::consts::PI,
+            rows: 16,
+            cols: 16,
+            width_m: 8.0 * LAMBDA,
+            height_m: 8.0 * LAMBDA,
+        };
+        let t = Vec3::new(0.0, -20.0, z0);
+        let aperture = VirtualAperture {
+            start: t,
+            end: t + Vec3::new(0.01, 0.0, 0.0),
+            positions: 1,
+        };
+        (array, aperture)
+    }
+
+    #[test]
+    fn the_point_spread_function_is_the_panels_array_factor_across_its_beam() {
+        // u and v 1 m apart vertically, straddling the panel's and the transmitter's height: the
+        // transmit leg and the panel's centre see both at one range, and across the panel's rows
+        // the path differs by (z_e − z0)·Δz/R — the elevation array factor of 16 rows at λ/2,
+        // |sin(Nψ/2)/(N sin(ψ/2))|², ψ = 2π·(λ/2)·Δz/(λR) (far field, 60 m ≫ 2D²/λ = 0.12 m).
+        let (pulse, bin_m) = hann_pulse();
+        let (u, v) = (Vec3::new(0.0, 0.0, 9.5), Vec3::new(0.0, 0.0, 10.5));
+        let (array, aperture) = geometry(10.0);
+        let rx = array.elements(1);
+        let tx = [aperture.start];
+        let psf = PairPsf {
+            tx: &tx,
+            rx: &rx,
+            pulse: &pulse,
+            bin_m,
+            wavelength_m: LAMBDA,
+            array: &array,
+            aperture: &aperture,
+            bandwidth_hz: 400e6,
+            range_main_lobe_cells: 2.0,
+        };
+        assert!((psf.relative_power(u, u) - 1.0).abs() < 1e-4);
+        let r = u.distance(array.centre);
+        for dz in [0.3f32, 1.0, 2.2, 4.0] {
+            let (u, v) = (
+                Vec3::new(0.0, 0.0, 10.0 - dz / 2.0),
+                Vec3::new(0.0, 0.0, 10.0 + dz / 2.0),
+            );
+            let psi = std::f32::consts::PI * dz / r;
+            let n = 16.0;
+            let af = ((n * psi / 2.0).sin() / (n * (psi / 2.0).sin())).powi(2);
+            let got = psf.relative_power(u, v);
+            assert!(
+                (got - af).abs() < 0.02 * af.max(0.05),
+                "Δz {dz} m: ρ {got}, array factor {af}"
+            );
+        }
+        // Off the range shell by more than the pulse reaches (32 bins of 0.375 m): nothing.
+        assert_eq!(psf.relative_power(u, v + Vec3::new(-30.0, 0.0, 0.0)), 0.0);
+    }
+
+    #[test]
+    fn a_detection_no_stronger_than_a_stronger_echos_sidelobe_is_one_and_a_main_lobe_neighbour_is_not(
+    ) {
+        let (pulse, bin_m) = hann_pulse();
+        let (array, aperture) = geometry(10.0);
+        let rx = array.elements(1);
+        let tx = [aperture.start];
+        let psf = PairPsf {
+            tx: &tx,
+            rx: &rx,
+            pulse: &pulse,
+            bin_m,
+            wavelength_m: LAMBDA,
+            array: &array,
+            aperture: &aperture,
+            bandwidth_hz: 400e6,
+            range_main_lobe_cells: 2.0,
+        };
+        // The panel's vertical cross-range at 60 m: λR/H = 60·2/16 = 7.5 m; its first sidelobe
+        // peaks near 1.43 cells, 10.7 m from the echo, at ρ ≈ 0.047 — on the echo's range shell
+        // (both straddle the heights of the panel and the transmitter).
+        let u = Vec3::new(0.0, 0.0, 10.0 - 5.35);
+        let lobe = Vec3::new(0.0, 0.0, 10.0 + 5.35);
+        let near = u + Vec3::new(0.0, 0.0, 3.0);
+        let rho = psf.relative_power(u, lobe);
+        assert!(rho > 0.02 && rho < 0.08, "first sidelobe ρ {rho}");
+        let weak = 0.9 * rho.sqrt();
+        let strong = 1.5 * rho.sqrt();
+        let points = [u, lobe, near];
+        let flags = sidelobes(&psf, &points, &[1.0, weak, 0.01], &[], &[]);
+        assert_eq!(flags, [false, true, false]);
+        let flags = sidelobes(&psf, &points, &[1.0, strong, 0.01], &[], &[]);
+        assert_eq!(flags, [false, false, false]);
+        // A source outside the region explains a detection inside it, in its main lobe too.
+        let flags = sidelobes(&psf, &[lobe], &[weak], &[u], &[1.0]);
+        assert_eq!(flags, [true]);
+        let rho_near = psf.relative_power(u, near);
+        assert!(rho_near > 0.1, "{rho_near}");
+        let flags = sidelobes(&psf, &[near], &[0.9 * rho_near.sqrt()], &[u], &[1.0]);
+        assert_eq!(flags, [true]);
+        let flags = sidelobes(&psf, &[near], &[1.1 * rho_near.sqrt()], &[u], &[1.0]);
+        assert_eq!(flags, [false]);
+    }
+}
