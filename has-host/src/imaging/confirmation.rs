@@ -132,6 +132,7 @@ pub fn tallies(
 
 /// Which points survive the confirmation: those whose denials are fewer than `need` per
 /// confirmation ([`tallies`], module docs; `need` = 0 keeps every point).
+#[allow(clippy::too_many_arguments)]
 pub fn confirmed(
     points: &[Vec3],
     mask: &[u64],
@@ -167,6 +168,7 @@ fn kept(t: Tally, need: u8) -> bool {
 /// [`tallies`]; with `need`, each point's legs are traced only until its fate is known (its
 /// denials reach `need` per confirmation, or the pairs left cannot make them), so its `denied`
 /// may fall short of the full count but decides as the full count would.
+#[allow(clippy::too_many_arguments)]
 fn count(
     points: &[Vec3],
     mask: &[u64],

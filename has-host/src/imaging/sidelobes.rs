@@ -94,7 +94,7 @@ impl PulseTable {
     /// `p(x)` at `x` bins, linearly interpolated; 0 beyond the pulse's reach.
     fn at(&self, x: f32) -> Complex32 {
         let u = (x + self.half_bins) * Self::STEPS;
-        if !(u >= 0.0) {
+        if u.is_nan() || u < 0.0 {
             return Complex32::new(0.0, 0.0);
         }
         let i = u as usize;
