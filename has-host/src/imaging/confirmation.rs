@@ -45,7 +45,13 @@
 //! itself imaged, cannot have echoed to that pair; what it detected there is the smear or a
 //! sidelobe of the surfaces it does see, and such a confirmation says nothing either way. Only
 //! crossing counts: a leg that grazes the surface `p` stands on (a roof seen from a panel 10° over
-//! it) keeps `p` on the surface's plane, so it crosses nothing.
+//! it) keeps `p` on the surface's plane, so it crosses nothing; and the leg must pierce the
+//! patch, not pass its edge: where it meets the patch's plane, the patch holds points near that
+//! plane within a quarter of the support distance of each of four points half the support
+//! distance away from it in the plane, one each way along two directions, with normals within 30°
+//! of the patch's (a leg
+//! over a wall's top edge to the roof behind it passes within the support distance of the wall
+//! without piercing it).
 //!
 //! **A pair's own terrain echo says nothing.** A detection of pair `j` inside `j`'s own layer
 //! over the known terrain, with nothing of the fused cloud rising out of that layer around it
@@ -84,6 +90,11 @@ use rayon::prelude::*;
 use super::facing::faces_a_pair;
 use crate::knn::PointIndex;
 use crate::scene::Scene;
+
+/// Cosine of the largest angle between the normals of two points of one flat patch (30°): the
+/// own-sight test's probes around a leg's crossing find the patch it pierces, not a corner where
+/// a wall's and a roof's points meet.
+const COPLANAR_COS: f32 = 0.866;
 
 /// What a pair looks from: its panel's centre and boresight, its aperture's centre, and its own
 /// detections (`None`: it detected nothing).
@@ -273,7 +284,29 @@ fn count(
             }
             let (w, nw) = faced[j as usize];
             let (a, b) = ((s - w).dot(nw), (p - w).dot(nw));
-            a * b < 0.0 && a.abs() > support_m && b.abs() > support_m
+            if !(a * b < 0.0 && a.abs() > support_m && b.abs() > support_m) {
+                return false;
+            }
+            // Where the leg meets the patch's plane, the patch must surround it: a leg over a
+            // wall's top edge (a panel's grazing view of the roof behind it) passes within the
+            // support distance of the wall without piercing it.
+            let along = dir.dot(nw);
+            if along.abs() < 1e-3 {
+                return false;
+            }
+            let x = s - dir * (a / along);
+            let (t1, t2) = nw.any_orthonormal_pair();
+            let r = 0.5 * support_m;
+            [t1, -t1, t2, -t2].iter().all(|&t| {
+                let probe = x + t * r;
+                faced_near.may_hold(probe) && {
+                    let (k, d2) = index.nearest(probe);
+                    let (q, nq) = faced[k as usize];
+                    d2 <= 0.25 * r * r
+                        && (q - w).dot(nw).abs() <= 0.5 * r
+                        && nq.dot(nw).abs() >= COPLANAR_COS
+                }
+            })
         })
     };
     let sees_through_own_legs = |p: Vec3, k: usize| {
@@ -635,6 +668,34 @@ mod tests {
             2,
         );
         assert!(!keep[0] && keep[on_wall]);
+    }
+
+    #[test]
+    fn a_leg_over_a_walls_top_edge_to_the_roof_behind_it_is_not_blocked() {
+        // A wall x = 5 from z = 0 to 8 m (y in −6..6) and the roof behind it at z = 8 (x in
+        // −7..5), imaged; a panel at (60, 0, 9) views a roof point 6 m behind the eave: its leg
+        // passes 0.1 m over the wall's top edge, within the support distance of the wall, without
+        // piercing it. The same panel's leg to a point inside, under the roof, pierces the wall.
+        let mut points: Vec<Vec3> = (0..24)
+            .flat_map(|i| {
+                (0..17).map(move |k| Vec3::new(5.0, 0.5 * i as f32 - 6.0, 0.5 * k as f32))
+            })
+            .collect();
+        points.extend((0..24).flat_map(|i| {
+            (1..25).map(move |k| Vec3::new(5.0 - 0.5 * k as f32, 0.5 * i as f32 - 6.0, 8.0))
+        }));
+        let (roof_point, inside) = (Vec3::new(-1.0, 0.0, 8.0), Vec3::new(-1.0, 0.0, 3.0));
+        points.push(inside);
+        // The pair's other end is a UAV over the roof.
+        let pair = (Vec3::new(60.0, 0.0, 9.0), Vec3::new(0.0, -6.0, 40.0));
+        let sights = [sight(pair.0, pair.1, None)];
+        let mask = vec![1u64; points.len()];
+        let observers = vec![vec![pair.1, pair.0]; points.len()];
+        let facing = own_surface_normals(&points, &observers, 2.0, 0.9, 4.0).unwrap();
+        let t = tallies(&points, &mask, &facing, &sights, &open_ground(), 2.0, true);
+        let at = |q: Vec3| points.iter().position(|&p| p.distance(q) < 1e-3).unwrap();
+        assert_eq!(t[at(roof_point)].confirmed, 1, "over the eave");
+        assert_eq!(t[at(inside)].confirmed, 0, "through the wall");
     }
 
     #[test]
