@@ -67,8 +67,10 @@ impl RunDir {
         }
         let marker = out.join(MARKER);
         let line = std::env::args().collect::<Vec<_>>().join(" ");
-        std::fs::write(&marker, format!("{line}\n"))
-            .with_context(|| format!("--out: {} is not writable", out.display()))?;
+        has_host::io::atomic_write(&marker, |w| {
+            std::io::Write::write_all(w, format!("{line}\n").as_bytes())
+        })
+        .with_context(|| format!("--out: {} is not writable", out.display()))?;
         Ok(RunDir { marker })
     }
 

@@ -17,6 +17,7 @@ use crate::material::Material;
 use crate::mesh::TriMesh;
 use crate::scene::Object;
 
+pub mod guard;
 pub mod mitsuba;
 pub mod npy;
 pub mod obj;
@@ -147,15 +148,70 @@ pub fn known_material_names() -> String {
 
 /// Reads a whole file, naming it in the error.
 pub(crate) fn read_bytes(path: &Path) -> Result<Vec<u8>, MeshIoError> {
-    std::fs::read(path).map_err(|e| MeshIoError::io(path, e))
+    guard::read_input(path).map_err(|e| MeshIoError::io(path, e))
 }
 
 /// Writes `path` atomically: `body` writes into a temporary file in the same directory, which is
 /// flushed and renamed over `path`. On error the temporary file is removed.
+///
+/// # Errors
+/// [`MeshIoError::BadData`] before anything is written when `path` exists and is not a regular
+/// file, or is a file this run read ([`guard::check_output`]); [`MeshIoError::Io`] when writing
+/// fails.
 pub fn atomic_write(
     path: &Path,
     body: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
 ) -> Result<(), MeshIoError> {
+    let tmp = write_temporary(path, body)?;
+    std::fs::rename(&tmp, path).map_err(|e| {
+        let _ = std::fs::remove_file(&tmp);
+        MeshIoError::io(path, e)
+    })
+}
+
+/// Writes several files, each `(path, bytes)`, all or none: every one goes to its temporary
+/// file first, and only when all are written are they renamed into place.
+///
+/// # Errors
+/// As [`atomic_write`]; then none of the files is left (a rename that fails part-way removes
+/// the ones already renamed).
+pub fn write_files(files: &[(PathBuf, Vec<u8>)]) -> Result<(), MeshIoError> {
+    let mut tmps = Vec::with_capacity(files.len());
+    for (path, bytes) in files {
+        match write_temporary(path, |w| w.write_all(bytes)) {
+            Ok(t) => tmps.push(t),
+            Err(e) => {
+                for t in &tmps {
+                    let _ = std::fs::remove_file(t);
+                }
+                return Err(e);
+            }
+        }
+    }
+    for (k, (tmp, (path, _))) in tmps.iter().zip(files).enumerate() {
+        if let Err(e) = std::fs::rename(tmp, path) {
+            for t in &tmps[k..] {
+                let _ = std::fs::remove_file(t);
+            }
+            for (p, _) in &files[..k] {
+                let _ = std::fs::remove_file(p);
+            }
+            return Err(MeshIoError::io(path, e));
+        }
+    }
+    Ok(())
+}
+
+/// The temporary file of [`atomic_write`] for `path`, written by `body` and synced; removed
+/// again on error. Refuses a `path` [`guard::check_output`] refuses, before writing.
+fn write_temporary(
+    path: &Path,
+    body: impl FnOnce(&mut BufWriter<File>) -> std::io::Result<()>,
+) -> Result<PathBuf, MeshIoError> {
+    guard::check_output(path).map_err(|msg| MeshIoError::BadData {
+        path: path.to_path_buf(),
+        msg,
+    })?;
     let dir = match path.parent() {
         Some(d) if !d.as_os_str().is_empty() => d.to_path_buf(),
         _ => PathBuf::from("."),
@@ -177,13 +233,15 @@ pub fn atomic_write(
         let mut w = BufWriter::with_capacity(1 << 20, f);
         body(&mut w)?;
         w.flush()?;
-        w.into_inner().map_err(|e| e.into_error())?.sync_all()?;
-        std::fs::rename(&tmp, path)
+        w.into_inner().map_err(|e| e.into_error())?.sync_all()
     })();
-    result.map_err(|e| {
-        let _ = std::fs::remove_file(&tmp);
-        MeshIoError::io(path, e)
-    })
+    match result {
+        Ok(()) => Ok(tmp),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(MeshIoError::io(path, e))
+        }
+    }
 }
 
 /// Loads the objects of a mesh or scene file, by extension: `.obj` ([`obj::read_obj`]),
@@ -384,6 +442,29 @@ mod tests {
         assert!(e.to_string().contains("boom"), "{e}");
         assert_eq!(std::fs::read_to_string(&p).unwrap(), "new");
         assert_eq!(std::fs::read_dir(&d).unwrap().count(), 1);
+    }
+
+    #[test]
+    fn write_files_writes_every_file_or_none() {
+        let d = testutil::tmp_dir("write-files");
+        let ok: Vec<_> = ["a.npy", "b.npy"]
+            .iter()
+            .map(|n| (d.join(n), n.as_bytes().to_vec()))
+            .collect();
+        write_files(&ok).unwrap();
+        assert_eq!(std::fs::read(d.join("b.npy")).unwrap(), b"b.npy");
+        // The third cannot be written (its directory is missing): none of the new ones is.
+        let bad: Vec<_> = [d.join("c.npy"), d.join("e.npy"), d.join("missing/f.npy")]
+            .into_iter()
+            .map(|p| (p, b"x".to_vec()))
+            .collect();
+        write_files(&bad).unwrap_err();
+        let mut left: Vec<_> = std::fs::read_dir(&d)
+            .unwrap()
+            .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+            .collect();
+        left.sort();
+        assert_eq!(left, ["a.npy", "b.npy"]);
     }
 
     #[test]

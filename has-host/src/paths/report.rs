@@ -108,10 +108,11 @@ pub fn parse_receivers(text: &str, path: &FsPath) -> Result<Vec<DVec3>, Receiver
 /// # Errors
 /// [`ReceiversError::Read`], or as [`parse_receivers`].
 pub fn read_receivers(path: &FsPath) -> Result<Vec<DVec3>, ReceiversError> {
-    let text = std::fs::read_to_string(path).map_err(|source| ReceiversError::Read {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text =
+        crate::io::guard::read_input_string(path).map_err(|source| ReceiversError::Read {
+            path: path.to_path_buf(),
+            source,
+        })?;
     parse_receivers(&text, path)
 }
 

@@ -119,6 +119,20 @@ impl TableFields {
         }
     }
 
+    /// `v` can be part of a file name ([`crate::io::guard::check_name_component`]): outputs
+    /// such as `pair_<bs>-<aperture>.ply` are named after it.
+    ///
+    /// # Errors
+    /// [`ScenarioError::Invalid`] naming the field.
+    pub fn name_component(
+        &self,
+        field: impl std::fmt::Display,
+        v: &str,
+    ) -> Result<(), ScenarioError> {
+        crate::io::guard::check_name_component(v)
+            .map_err(|expected| self.invalid(field, v, expected))
+    }
+
     /// Every coordinate of `v` is finite.
     ///
     /// # Errors

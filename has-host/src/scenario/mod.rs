@@ -492,7 +492,7 @@ impl Scenario {
     /// # Errors
     /// [`ScenarioError`] naming the file, field and value.
     pub fn load(path: &Path) -> Result<Scenario, ScenarioError> {
-        let text = std::fs::read_to_string(path).map_err(|e| ScenarioError::Io {
+        let text = crate::io::guard::read_input_string(path).map_err(|e| ScenarioError::Io {
             path: path.to_path_buf(),
             source: e,
         })?;
@@ -697,6 +697,7 @@ impl Scenario {
             return Err(FIELDS.invalid("base_stations", "[]", "at least one base station"));
         }
         for (i, b) in self.base_stations.iter().enumerate() {
+            FIELDS.name_component(format!("base_stations[{i}].name"), &b.name)?;
             FIELDS.finite(format!("base_stations[{i}].position"), b.position)?;
             if !b.boresight_deg.is_finite() {
                 return Err(FIELDS.invalid(
@@ -726,6 +727,7 @@ impl Scenario {
             return Err(FIELDS.invalid("apertures", "[]", "at least one aperture"));
         }
         for (i, a) in self.apertures.iter().enumerate() {
+            FIELDS.name_component(format!("apertures[{i}].name"), &a.name)?;
             FIELDS.finite(format!("apertures[{i}].start"), a.start)?;
             FIELDS.finite(format!("apertures[{i}].end"), a.end)?;
             let length = (Vec3::from(a.end) - Vec3::from(a.start)).length() as f64;
@@ -1204,6 +1206,29 @@ mod tests {
         let x = (limit * 0.999) as f32;
         let err = ((limit * 0.999) - x as f64).abs();
         assert!(err <= lambda / 64.0, "{err}");
+    }
+
+    #[test]
+    fn sensor_and_object_names_that_cannot_be_file_names_are_refused_naming_the_field() {
+        for bad in ["../../../tmp/x", "", "a/b", "a\0b"] {
+            let mut sc = factory();
+            sc.base_stations[0].name = bad.into();
+            let e = sc.validate().unwrap_err().to_string();
+            assert!(e.starts_with("base_stations[0].name:"), "{e}");
+            let mut sc = factory();
+            sc.apertures[1].name = bad.into();
+            let e = sc.validate().unwrap_err().to_string();
+            assert!(e.starts_with("apertures[1].name:"), "{e}");
+            let mut sc = factory();
+            match &mut sc.scene.objects[0] {
+                ObjectSpec::Building(b) | ObjectSpec::Box(b) => b.name = bad.into(),
+                ObjectSpec::Ground(g) => g.name = bad.into(),
+                ObjectSpec::Cylinder(c) => c.name = bad.into(),
+                ObjectSpec::Mesh(m) => m.name = Some(bad.into()),
+            }
+            let e = sc.scene.build_objects().unwrap_err().to_string();
+            assert!(e.starts_with("scene.objects[0].name:"), "{e}");
+        }
     }
 
     #[test]

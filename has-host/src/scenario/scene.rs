@@ -268,6 +268,16 @@ pub enum SceneSpecError {
         /// The problem, naming object, field and value.
         source: ShapeError,
     },
+    /// An object's name is empty or cannot be part of a file name.
+    #[error("scene.objects[{index}].name: {name:?} ({expected})")]
+    BadName {
+        /// Index in `scene.objects`.
+        index: usize,
+        /// The name.
+        name: String,
+        /// What a name must be ([`crate::io::guard::check_name_component`]).
+        expected: &'static str,
+    },
     /// A mesh file could not be loaded.
     #[error("scene.objects[{index}] (mesh): {source}")]
     Mesh {
@@ -319,7 +329,7 @@ impl SceneSpec {
     /// Reads the `[scene]` table of a TOML file (other top-level tables, which belong to the
     /// full scenario, are ignored here). Relative mesh paths resolve against the file's directory.
     pub fn load(path: &Path) -> Result<SceneSpec, SceneSpecError> {
-        let text = std::fs::read_to_string(path).map_err(|e| SceneSpecError::Io {
+        let text = crate::io::guard::read_input_string(path).map_err(|e| SceneSpecError::Io {
             path: path.to_path_buf(),
             source: e,
         })?;
@@ -358,6 +368,21 @@ impl SceneSpec {
     pub fn build_objects(&self) -> Result<Vec<Object>, SceneSpecError> {
         let mut out: Vec<Object> = Vec::new();
         for (index, spec) in self.objects.iter().enumerate() {
+            let given = match spec {
+                ObjectSpec::Building(b) | ObjectSpec::Box(b) => Some(&b.name),
+                ObjectSpec::Ground(g) => Some(&g.name),
+                ObjectSpec::Cylinder(c) => Some(&c.name),
+                ObjectSpec::Mesh(m) => m.name.as_ref(),
+            };
+            if let Some(name) = given {
+                crate::io::guard::check_name_component(name).map_err(|expected| {
+                    SceneSpecError::BadName {
+                        index,
+                        name: name.clone(),
+                        expected,
+                    }
+                })?;
+            }
             let shape_err = |source| SceneSpecError::Shape { index, source };
             let new: Vec<Object> = match spec {
                 ObjectSpec::Building(b) => vec![build_building(b, false).map_err(shape_err)?],
