@@ -134,7 +134,23 @@ pub enum ShapeError {
         /// Offending value.
         value: u32,
     },
+    /// A count whose triangles would not fit in memory ([`crate::memory::check_size`]).
+    #[error("{shape} '{name}': {source}")]
+    TooLarge {
+        /// Shape kind.
+        shape: &'static str,
+        /// Object name.
+        name: String,
+        /// The count, its estimate and the room.
+        source: crate::memory::TooLarge,
+    },
 }
+
+/// Bytes a generated triangle costs by the time a scene is traced or imaged: its three corners
+/// (36 B), the scene's copy with its normal and object index, its share of the bounding-volume
+/// hierarchy and of the facet and scatterer tables; generous, so that a count the guard passes
+/// fits.
+pub(crate) const BYTES_PER_TRIANGLE: f64 = 256.0;
 
 struct Check<'a> {
     shape: &'static str,
@@ -173,6 +189,21 @@ impl Check<'_> {
             self.finite(f, c)?;
         }
         Ok(())
+    }
+
+    /// Refuses `field` = `value` when the `triangles` it generates would not fit in memory.
+    fn size(
+        &self,
+        field: &'static str,
+        value: impl std::fmt::Debug,
+        triangles: f64,
+    ) -> Result<(), ShapeError> {
+        crate::memory::check_size(field, format!("{value:?}"), triangles * BYTES_PER_TRIANGLE)
+            .map_err(|source| ShapeError::TooLarge {
+                shape: self.shape,
+                name: self.name.to_string(),
+                source,
+            })
     }
 
     fn at_least(&self, field: &'static str, v: u32, min: u32) -> Result<(), ShapeError> {
@@ -288,6 +319,8 @@ pub fn building(
             facing,
         } => {
             c.at_least("roof.teeth", teeth, 1)?;
+            // Each tooth: two steps of the profile, each a roof quad and two gable quads.
+            c.size("roof.teeth", teeth, 8.0 * teeth as f64)?;
             c.positive("roof.height", height)?;
             facing.axis()
         }
@@ -459,6 +492,11 @@ pub fn ground(
     c.positive("size.y", max.y - min.y)?;
     c.at_least("cells.x", cells.0, 1)?;
     c.at_least("cells.y", cells.1, 1)?;
+    c.size(
+        "cells",
+        [cells.0, cells.1],
+        2.0 * cells.0 as f64 * cells.1 as f64,
+    )?;
     let (nx, ny) = cells;
     let step = (max - min) / Vec2::new(nx as f32, ny as f32);
     let at = |i: u32, j: u32| -> Vec3 {
@@ -542,6 +580,7 @@ pub fn cylinder(
     c.positive("radius", radius)?;
     c.positive("height", height)?;
     c.at_least("segments", segments, 3)?;
+    c.size("segments", segments, 4.0 * segments as f64)?;
     let ring = |k: u32| {
         let a = std::f32::consts::TAU * (k % segments) as f32 / segments as f32;
         Vec3::new(radius * a.cos(), radius * a.sin(), 0.0)
@@ -908,5 +947,53 @@ mod tests {
         )
         .unwrap_err();
         assert!(e.to_string().contains("cells.x"), "{e}");
+    }
+    #[test]
+    fn counts_whose_triangles_would_not_fit_are_refused_before_allocating() {
+        if crate::memory::room().is_none() {
+            return;
+        }
+        let e = ground(
+            "g",
+            Material::Concrete,
+            Vec2::ZERO,
+            Vec2::new(1.0, 1.0),
+            0.0,
+            (200_000, 200_000),
+        )
+        .unwrap_err();
+        assert!(matches!(e, ShapeError::TooLarge { .. }), "{e}");
+        assert!(e.to_string().contains("cells: [200000, 200000]"), "{e}");
+        let e = cylinder(
+            "t",
+            Material::Metal,
+            Vec3::ZERO,
+            1.0,
+            1.0,
+            4_000_000_000,
+            true,
+        )
+        .unwrap_err();
+        assert!(e.to_string().contains("segments: 4000000000 needs"), "{e}");
+        let e = building(
+            "hall",
+            Material::Concrete,
+            &Building {
+                base_center: Vec3::ZERO,
+                size: Vec3::ONE,
+                yaw_rad: 0.0,
+                roof: Roof::Sawtooth {
+                    teeth: 4_000_000_000,
+                    height: 1.0,
+                    facing: Direction::PosX,
+                },
+                bottom: false,
+            },
+        )
+        .unwrap_err();
+        assert!(
+            e.to_string().contains("roof.teeth: 4000000000 needs"),
+            "{e}"
+        );
     }
 }

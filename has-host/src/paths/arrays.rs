@@ -18,7 +18,7 @@ use num_complex::Complex64;
 
 use super::Path;
 use crate::channel::frequency_response_at;
-use crate::io::npy::write_npy;
+use crate::io::npy::npy_bytes;
 use crate::io::MeshIoError;
 
 /// The files [`write_path_arrays`] writes (module docs), `cfr.npy` and `freqs_hz.npy` only with
@@ -37,10 +37,38 @@ pub const FILES: [&str; 11] = [
     "freqs_hz.npy",
 ];
 
-/// Writes the paths of each receiver `rxs[r]` (`paths[r]`) into `dir` (module docs); with
-/// `freqs_hz`, their frequency response too.
+/// Bytes [`write_path_arrays`] holds at once for `receivers`, `paths` per receiver and
+/// `subcarriers`: every array as values and as file bytes.
+pub fn arrays_bytes(receivers: usize, paths: usize, subcarriers: usize) -> f64 {
+    let (r, p, n) = (receivers as f64, paths as f64, subcarriers as f64);
+    // Per path: tau and four angles (f64), a and four Jones terms (complex128); per receiver:
+    // its position and count; per subcarrier: the response, and the grid once.
+    2.0 * (r * (p * (5.0 * 8.0 + 5.0 * 16.0) + 4.0 * 8.0 + n * 16.0) + n * 8.0)
+}
+
+/// Refuses arrays that would not fit in memory ([`crate::memory::check_size`]), naming
+/// `subcarriers × receivers`.
 ///
 /// # Errors
+/// [`crate::memory::TooLarge`].
+pub fn check_arrays_size(
+    receivers: usize,
+    paths: usize,
+    subcarriers: usize,
+) -> Result<(), crate::memory::TooLarge> {
+    crate::memory::check_size(
+        "subcarriers × receivers",
+        format!("{subcarriers} × {receivers}"),
+        arrays_bytes(receivers, paths, subcarriers),
+    )
+}
+
+/// Writes the paths of each receiver `rxs[r]` (`paths[r]`) into `dir` (module docs); with
+/// `freqs_hz`, their frequency response too. Every file is written or none
+/// ([`crate::io::write_files`]).
+///
+/// # Errors
+/// [`MeshIoError::BadData`] for arrays that would not fit in memory ([`check_arrays_size`]);
 /// [`MeshIoError::Io`] when a file cannot be written.
 pub fn write_path_arrays(
     dir: &FsPath,
@@ -50,31 +78,38 @@ pub fn write_path_arrays(
 ) -> Result<(), MeshIoError> {
     let r = paths.len();
     let p = paths.iter().map(Vec::len).max().unwrap_or(0);
+    check_arrays_size(r, p, freqs_hz.map_or(0, <[f64]>::len)).map_err(|e| {
+        MeshIoError::BadData {
+            path: dir.to_path_buf(),
+            msg: e.to_string(),
+        }
+    })?;
     let table = |f: &dyn Fn(&Path) -> f64| -> Vec<f64> {
         paths
             .iter()
             .flat_map(|ps| (0..p).map(move |i| ps.get(i).map_or(f64::NAN, f)))
             .collect()
     };
+    let mut files: Vec<(&str, Vec<u8>)> = Vec::new();
     let counts: Vec<i64> = paths.iter().map(|ps| ps.len() as i64).collect();
-    write_npy(&dir.join("num_paths.npy"), &[r], &counts)?;
+    files.push(("num_paths.npy", npy_bytes(&[r], &counts)));
     let rx: Vec<f64> = rxs.iter().flat_map(|v| v.to_array()).collect();
-    write_npy(&dir.join("rx.npy"), &[rxs.len(), 3], &rx)?;
-    write_npy(&dir.join("tau.npy"), &[r, p], &table(&|q| q.delay_s))?;
+    files.push(("rx.npy", npy_bytes(&[rxs.len(), 3], &rx)));
+    files.push(("tau.npy", npy_bytes(&[r, p], &table(&|q| q.delay_s))));
     for (name, f) in [
         ("aod.npy", (|q: &Path| q.aod) as fn(&Path) -> f64),
         ("zod.npy", |q: &Path| q.zod),
         ("aoa.npy", |q: &Path| q.aoa),
         ("zoa.npy", |q: &Path| q.zoa),
     ] {
-        write_npy(&dir.join(name), &[r, p], &table(&f))?;
+        files.push((name, npy_bytes(&[r, p], &table(&f))));
     }
     let zero = Complex64::new(0.0, 0.0);
     let a: Vec<Complex64> = paths
         .iter()
         .flat_map(|ps| (0..p).map(move |i| ps.get(i).map_or(zero, |q| q.a)))
         .collect();
-    write_npy(&dir.join("a.npy"), &[r, p], &a)?;
+    files.push(("a.npy", npy_bytes(&[r, p], &a)));
     let jones: Vec<Complex64> = paths
         .iter()
         .flat_map(|ps| {
@@ -84,14 +119,18 @@ pub fn write_path_arrays(
             })
         })
         .collect();
-    write_npy(&dir.join("jones.npy"), &[r, p, 2, 2], &jones)?;
+    files.push(("jones.npy", npy_bytes(&[r, p, 2, 2], &jones)));
     if let Some(freqs) = freqs_hz {
         let cfr: Vec<Complex64> = paths
             .iter()
             .flat_map(|ps| frequency_response_at(ps, freqs))
             .collect();
-        write_npy(&dir.join("cfr.npy"), &[r, freqs.len()], &cfr)?;
-        write_npy(&dir.join("freqs_hz.npy"), &[freqs.len()], freqs)?;
+        files.push(("cfr.npy", npy_bytes(&[r, freqs.len()], &cfr)));
+        files.push(("freqs_hz.npy", npy_bytes(&[freqs.len()], freqs)));
     }
-    Ok(())
+    let files: Vec<_> = files
+        .into_iter()
+        .map(|(name, bytes)| (dir.join(name), bytes))
+        .collect();
+    crate::io::write_files(&files)
 }

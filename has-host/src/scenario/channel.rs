@@ -95,6 +95,11 @@ pub struct ChannelOverrides {
     pub sbr_rays: Option<usize>,
 }
 
+/// Bytes one UE costs the channel experiment: its position, the multipath sets traced on the
+/// true scene and on the twin (a few dozen paths of ≈ 200 B each), their matching and the
+/// report's rows; generous, so that a count the guard passes fits.
+const BYTES_PER_UE: f64 = 64.0 * 1024.0;
+
 fn default_ues() -> usize {
     500
 }
@@ -163,6 +168,7 @@ impl ChannelSpec {
         if self.ues == 0 {
             return Err(CHANNEL.invalid("ues", self.ues, "at least 1"));
         }
+        CHANNEL.size("ues", self.ues, self.ues as f64 * BYTES_PER_UE)?;
         if !(self.ue_height_m.is_finite() && self.ue_height_m >= 0.0) {
             return Err(CHANNEL.invalid("ue_height_m", self.ue_height_m, "finite and >= 0"));
         }
@@ -205,12 +211,22 @@ impl ChannelSpec {
         if self.codebook_cols == 0 {
             return Err(CHANNEL.invalid("codebook_cols", self.codebook_cols, "at least 1"));
         }
+        let beams = self.codebook_rows as f64 * self.codebook_cols as f64;
+        CHANNEL.size(
+            "codebook_rows × codebook_cols",
+            (self.codebook_rows, self.codebook_cols),
+            // Each beam's weights (complex64 per element) and its gain at every UE.
+            beams * (beams * 8.0 + self.ues as f64 * 8.0),
+        )?;
         CHANNEL.positive("codebook_spacing_wl", self.codebook_spacing_wl)?;
         CHANNEL.positive("match_delay_ns", self.match_delay_ns)?;
         CHANNEL.positive("match_angle_deg", self.match_angle_deg)?;
         let q = &self.quick;
         if q.ues == Some(0) {
             return Err(CHANNEL.invalid("quick.ues", 0, "at least 1"));
+        }
+        if let Some(n) = q.ues {
+            CHANNEL.size("quick.ues", n, n as f64 * BYTES_PER_UE)?;
         }
         if let Some(o) = q.max_order.filter(|&o| o > crate::paths::MAX_ORDER) {
             return Err(CHANNEL.invalid("quick.max_order", o, "at most 8"));

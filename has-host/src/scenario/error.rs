@@ -51,6 +51,9 @@ pub enum ScenarioError {
         /// The wavelength, metres.
         wavelength_m: f64,
     },
+    /// A size that would not fit in memory ([`crate::memory::check_size`]).
+    #[error(transparent)]
+    TooLarge(#[from] crate::memory::TooLarge),
     /// Range profiles too short for the region: an OFDM profile's bins wrap after `n·c/B` of
     /// path, so an echo from farther would fold onto a nearer path.
     #[error(
@@ -131,6 +134,24 @@ impl TableFields {
     ) -> Result<(), ScenarioError> {
         crate::io::guard::check_name_component(v)
             .map_err(|expected| self.invalid(field, v, expected))
+    }
+
+    /// `field` = `value`, which implies `need_bytes`, fits in memory
+    /// ([`crate::memory::check_size`]).
+    ///
+    /// # Errors
+    /// [`ScenarioError::TooLarge`] naming the field.
+    pub fn size(
+        &self,
+        field: impl std::fmt::Display,
+        value: impl std::fmt::Debug,
+        need_bytes: f64,
+    ) -> Result<(), ScenarioError> {
+        Ok(crate::memory::check_size(
+            self.name(field),
+            format!("{value:?}"),
+            need_bytes,
+        )?)
     }
 
     /// Every coordinate of `v` is finite.

@@ -486,6 +486,11 @@ pub fn coherent_extent_m(wavelength_m: f64) -> f64 {
     wavelength_m * (1u64 << 18) as f64
 }
 
+/// Bytes one panel element costs before the imaging's own estimate
+/// (`imaging::run::check_memory`) is asked: its position and gain, in each of the arrays built
+/// from the panel; generous.
+const BYTES_PER_ELEMENT: f64 = 256.0;
+
 impl Scenario {
     /// Reads and validates a scenario file.
     ///
@@ -713,6 +718,11 @@ impl Scenario {
                     "≥ 1",
                 ));
             }
+            FIELDS.size(
+                format!("base_stations[{i}].rows × cols"),
+                (b.rows, b.cols),
+                b.rows as f64 * b.cols as f64 * BYTES_PER_ELEMENT,
+            )?;
             FIELDS.positive(format!("base_stations[{i}].width_m"), b.width_m as f64)?;
             FIELDS.positive(format!("base_stations[{i}].height_m"), b.height_m as f64)?;
             if self.base_stations[..i].iter().any(|o| o.name == b.name) {
@@ -826,6 +836,13 @@ impl Scenario {
         FIELDS.positive("imaging.false_alarms_per_image", im.false_alarms_per_image)?;
         FIELDS.positive("imaging.voxel_m", im.voxel_m as f64)?;
         FIELDS.positive("imaging.coarse_voxel_m", im.coarse_voxel_m as f64)?;
+        if im.coarse_voxel_m < im.voxel_m {
+            return Err(FIELDS.invalid(
+                "imaging.coarse_voxel_m",
+                im.coarse_voxel_m,
+                "at least voxel_m: the coarse pass masks the finer one",
+            ));
+        }
         for (f, v) in [
             ("imaging.coarse_threshold_db", im.coarse_threshold_db),
             ("imaging.threshold_db", im.threshold_db),
@@ -1229,6 +1246,14 @@ mod tests {
             let e = sc.scene.build_objects().unwrap_err().to_string();
             assert!(e.starts_with("scene.objects[0].name:"), "{e}");
         }
+    }
+
+    #[test]
+    fn a_coarse_voxel_finer_than_the_fine_one_is_refused() {
+        let mut sc = factory();
+        sc.imaging.coarse_voxel_m = 0.01;
+        let e = sc.validate().unwrap_err().to_string();
+        assert!(e.starts_with("imaging.coarse_voxel_m: 0.01"), "{e}");
     }
 
     #[test]
