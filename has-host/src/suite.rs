@@ -49,6 +49,12 @@ pub enum SuiteError {
         /// The suite's site names, comma-separated.
         known: String,
     },
+    /// A site named twice (it would run twice into one directory).
+    #[error("site '{name}' is named twice")]
+    DuplicateSite {
+        /// The name.
+        name: String,
+    },
 }
 
 /// One site of the suite: a scenario file and its name.
@@ -99,10 +105,18 @@ pub fn discover(dir: &Path) -> Result<Vec<Site>, SuiteError> {
 /// `all` restricted to the sites named `names`, in that order (`names` empty: all of them).
 ///
 /// # Errors
-/// [`SuiteError::UnknownSite`] for the first name that is not a site of `all`.
+/// [`SuiteError::UnknownSite`] for the first name that is not a site of `all`;
+/// [`SuiteError::DuplicateSite`] for the first one named twice.
 pub fn select(all: &[Site], names: &[String]) -> Result<Vec<Site>, SuiteError> {
     if names.is_empty() {
         return Ok(all.to_vec());
+    }
+    if let Some((_, n)) = names
+        .iter()
+        .enumerate()
+        .find(|(i, n)| names[..*i].contains(n))
+    {
+        return Err(SuiteError::DuplicateSite { name: n.clone() });
     }
     names
         .iter()
@@ -431,6 +445,8 @@ mod tests {
         let s = select(&all, &["y".into(), "x".into()]).unwrap();
         assert_eq!(s, [site("y"), site("x")]);
         assert_eq!(select(&all, &[]).unwrap(), all);
+        let e = select(&all, &["x".into(), "y".into(), "x".into()]).unwrap_err();
+        assert_eq!(e.to_string(), "site 'x' is named twice");
     }
 
     #[test]

@@ -2,7 +2,7 @@
 //!
 //! The binary is thin: it parses arguments, shows progress, writes files and prints summaries;
 //! the work lives in `has-host` and `has-dsp`. Every failure ends the process with exit code 1 and
-//! one readable line on stderr.
+//! one readable line on stderr; a command line clap cannot parse exits 2 with its usage text.
 #![forbid(unsafe_code)]
 
 use clap::{Parser, Subcommand};
@@ -120,12 +120,32 @@ fn materials(freq_ghz: f64) -> anyhow::Result<()> {
     if !(freq_ghz.is_finite() && freq_ghz > 0.0) {
         anyhow::bail!("--freq-ghz: {freq_ghz} is not a positive frequency");
     }
+    // The fits hold only over their stated ranges; outside every one, no row means anything.
+    let (lo, hi) = has_host::Material::all()
+        .map(has_host::Material::valid_range_ghz)
+        .fold((f64::INFINITY, 0.0f64), |(l, h), (a, b)| {
+            (l.min(a), h.max(b))
+        });
+    if !(lo..=hi).contains(&freq_ghz) {
+        anyhow::bail!(
+            "--freq-ghz: {freq_ghz} GHz is outside every material's ITU-R P.2040 range \
+             ({lo} … {hi} GHz)"
+        );
+    }
     let f = freq_ghz * 1e9;
     println!(
         "{:<20} {:>8} {:>12} {:>22}",
         "material", "εr", "σ (S/m)", "η = εr − jσ/(ε0ω)"
     );
     for m in has_host::Material::all() {
+        let (a, b) = m.valid_range_ghz();
+        if !(a..=b).contains(&freq_ghz) {
+            println!(
+                "{:<20} outside its fit's range, {a} … {b} GHz",
+                format!("itu_{}", m.name())
+            );
+            continue;
+        }
         let eta = m.complex_permittivity(f);
         println!(
             "{:<20} {:>8.3} {:>12.4e} {:>10.3} {:>+11.3e}j",

@@ -335,27 +335,63 @@ fn check_args(args: &ReconstructArgs) -> Result<()> {
     Ok(())
 }
 
-/// Refuses pair clouds from a run of another scenario or preset: `dir/report.json` must name
-/// the same scenario file and preset.
-fn check_pairs_run(dir: &Path, scenario: &str, preset: &str) -> Result<()> {
+/// Refuses pair clouds from a run of another scenario, preset or seed: `dir/report.json` must
+/// record the same scenario digest ([`Scenario::digest`]) and preset. A run written before
+/// digests were recorded is compared by the scenario's file name and the preset, with a note,
+/// and refused with `--seed` (its seed is not known).
+fn check_pairs_run(
+    dir: &Path,
+    args: &ReconstructArgs,
+    scenario: &str,
+    sc: &Scenario,
+) -> Result<()> {
     /// What `--from-pairs` reads of a run's `report.json` ([`ReconstructRunReport`]'s fields).
     #[derive(serde::Deserialize)]
     struct RunOf {
         scenario: String,
         preset: String,
+        scenario_digest: Option<String>,
+        seed: Option<u64>,
     }
+    let preset = if args.quick { "quick" } else { "default" };
     let path = dir.join("report.json");
     let text = std::fs::read_to_string(&path)
         .with_context(|| format!("--from-pairs: reading {}", path.display()))?;
     let run: RunOf = serde_json::from_str(&text)
         .with_context(|| format!("--from-pairs: parsing {}", path.display()))?;
-    let file = |s: &str| Path::new(s).file_name().map(|f| f.to_os_string());
+    let digest = sc.digest()?;
     let (run_sc, run_preset) = (run.scenario.as_str(), run.preset.as_str());
-    if file(run_sc) != file(scenario) || run_preset != preset {
+    let same = match &run.scenario_digest {
+        Some(d) => *d == digest && run_preset == preset,
+        None => {
+            if args.seed.is_some() {
+                anyhow::bail!(
+                    "--seed: {} records no seed (an older run), so its pair clouds cannot be \
+                     checked against seed {}",
+                    path.display(),
+                    sc.imaging.seed
+                );
+            }
+            eprintln!(
+                "note: {} records no scenario digest (an older run): only the scenario's file \
+                 name and the preset are compared",
+                path.display()
+            );
+            let file = |s: &str| Path::new(s).file_name().map(|f| f.to_os_string());
+            file(run_sc) == file(scenario) && run_preset == preset
+        }
+    };
+    if !same {
+        let of = |d: Option<&str>, seed: Option<u64>| match (d, seed) {
+            (Some(d), Some(s)) => format!(", seed {s}, scenario digest {d}"),
+            _ => String::new(),
+        };
         anyhow::bail!(
-            "--from-pairs: {} is a run of {run_sc} (preset {run_preset}), not of {scenario} \
-             (preset {preset})",
-            dir.display()
+            "--from-pairs: {} is a run of {run_sc} (preset {run_preset}{}), not of {scenario} \
+             (preset {preset}{})",
+            dir.display(),
+            of(run.scenario_digest.as_deref(), run.seed),
+            of(Some(&digest), Some(sc.imaging.seed)),
         );
     }
     Ok(())
@@ -403,7 +439,7 @@ pub fn run(args: ReconstructArgs) -> Result<ReconstructRunReport> {
     match &args.from_pairs {
         None => execute(&args, |p, progress| p.reconstruct(&opts, progress)),
         Some(dir) => execute(&args, |p, _| {
-            let images = reconstruction::read_pair_images(dir, &p.plans)?;
+            let images = reconstruction::read_pair_images(dir, &p)?;
             p.reconstruct_from_images(images, &opts)
         }),
     }
@@ -422,12 +458,9 @@ fn execute(
     let t0 = Instant::now();
     let (sc, scenario_name) = load(args)?;
     if let Some(dir) = &args.from_pairs {
-        check_pairs_run(
-            dir,
-            &scenario_name,
-            if args.quick { "quick" } else { "default" },
-        )?;
+        check_pairs_run(dir, args, &scenario_name, &sc)?;
     }
+    let scenario_digest = sc.digest()?;
     let run_dir = crate::run_dir::RunDir::start(&args.out, &OUTPUTS)?;
     let prepared = reconstruction::prepare(&sc)?;
 
@@ -461,6 +494,8 @@ fn execute(
     let mut report = ReconstructRunReport {
         scenario: scenario_name,
         preset: if args.quick { "quick" } else { "default" },
+        scenario_digest,
+        seed: sc.imaging.seed,
         peak_rss_mib: crate::resources::peak_rss_mib(),
         reconstruction: rec.report,
     };

@@ -464,17 +464,24 @@ impl Prepared<'_> {
 }
 
 /// The pair clouds a reconstruction wrote into `dir` (`pair_<name>.ply`, each vertex with its
-/// `intensity`), one per plan in order, for [`Prepared::reconstruct_from_images`]. The clouds
-/// must come from a run of the same scenario and preset: the pairs are matched by name only.
+/// `intensity`), one per plan of `prepared` in order, for [`Prepared::reconstruct_from_images`].
+/// The clouds must come from a run of the same scenario and preset: the pairs are matched by
+/// name only (`has-sim reconstruct --from-pairs` compares the run's scenario digest first).
 ///
 /// # Errors
 /// [`ReconstructError::PairImages`] naming the file that is missing, unreadable, without an
-/// `intensity` property, or with a non-finite point or intensity.
+/// `intensity` property, or with a non-finite point or intensity, or a point far outside the
+/// imaging region (by more than a tenth of its largest extent and a coarse voxel: no pair of
+/// this scenario imaged it).
 pub fn read_pair_images(
     dir: &std::path::Path,
-    plans: &[PairPlan],
+    prepared: &Prepared<'_>,
 ) -> Result<Vec<PairImage>, ReconstructError> {
-    plans
+    let (lo, hi) = prepared.scenario.region();
+    let margin = 0.1 * (hi - lo).max_element() + prepared.scenario.imaging.coarse_voxel_m;
+    let (lo, hi) = (lo - Vec3::splat(margin), hi + Vec3::splat(margin));
+    prepared
+        .plans
         .iter()
         .map(|p| {
             let path = dir.join(format!("pair_{}.ply", p.name));
@@ -489,6 +496,17 @@ pub fn read_pair_images(
                 .ok_or_else(|| bad("no vertex property `intensity`".into()))?;
             if let Some(i) = data.vertices.iter().position(|v| !v.is_finite()) {
                 return Err(bad(format!("vertex {i} is not finite")));
+            }
+            if let Some((i, v)) = data
+                .vertices
+                .iter()
+                .enumerate()
+                .find(|(_, v)| !(v.cmpge(lo).all() && v.cmple(hi).all()))
+            {
+                return Err(bad(format!(
+                    "vertex {i} at {v} lies outside the imaging region (within {margin} m): not \
+                     a pair cloud of this scenario"
+                )));
             }
             if let Some(i) = intensity.iter().position(|v| !v.is_finite()) {
                 return Err(bad(format!("intensity of vertex {i} is not finite")));

@@ -16,6 +16,11 @@ pub struct ReconstructRunReport {
     pub scenario: String,
     /// `quick` or `default`.
     pub preset: &'static str,
+    /// [`crate::scenario::Scenario::digest`] of the scenario as run (preset and seed applied):
+    /// `reconstruct --from-pairs` compares it, not the file's name.
+    pub scenario_digest: String,
+    /// The seed of the scatterers and the noise (`imaging.seed`, or `--seed`).
+    pub seed: u64,
     /// Peak resident memory of the process, MiB.
     pub peak_rss_mib: Option<f64>,
     /// The reconstruction's figures.

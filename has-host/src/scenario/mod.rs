@@ -533,6 +533,23 @@ impl Scenario {
         Ok(s)
     }
 
+    /// A digest of the scenario's content as run (its TOML with any preset and seed applied;
+    /// how the fine pass back-projects left out, as `--fixed-point` is): 16 hex digits of
+    /// FNV-1a over the text. Mesh objects count by their path and offset, not their file's
+    /// bytes. Two runs with the same digest imaged the same site with the same draw.
+    ///
+    /// # Errors
+    /// [`ScenarioError::Toml`] if serialisation fails.
+    pub fn digest(&self) -> Result<String, ScenarioError> {
+        let mut s = self.clone();
+        s.imaging.backprojection = Backprojection::default();
+        let text = s.to_toml_string()?;
+        let h = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
+            (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
+        });
+        Ok(format!("{h:016x}"))
+    }
+
     /// Applies the `[quick]` overrides to `imaging`.
     pub fn apply_quick(&mut self) {
         let q = self.quick.clone();
@@ -763,6 +780,16 @@ impl Scenario {
             }
         }
         for (i, p) in self.pairs.iter().enumerate() {
+            if self.pairs[..i]
+                .iter()
+                .any(|o| o.bs == p.bs && o.aperture == p.aperture)
+            {
+                return Err(FIELDS.invalid(
+                    format!("pairs[{i}]"),
+                    format!("{}-{}", p.bs, p.aperture),
+                    "unique: an earlier pair has the same bs and aperture",
+                ));
+            }
             if !self.base_stations.iter().any(|b| b.name == p.bs) {
                 return Err(FIELDS.invalid(
                     format!("pairs[{i}].bs"),
@@ -810,6 +837,13 @@ impl Scenario {
                         "finite and inside region_min … region_max",
                     ));
                 }
+            }
+            if let Some((i, j)) = crossing_edges(poly) {
+                return Err(FIELDS.invalid(
+                    "imaging.region_polygon",
+                    format!("edges {i} and {j} cross"),
+                    "a simple polygon (no edge crosses another)",
+                ));
             }
             if polygon_area(poly).abs() < 1e-6 {
                 return Err(FIELDS.invalid(
@@ -1139,6 +1173,65 @@ fn polygon_area(poly: &[[f32; 2]]) -> f32 {
         * 0.5
 }
 
+/// The first two edges of the closed polygon that cross or touch (edge `i` runs from vertex
+/// `i` to `i + 1`), other than neighbours meeting at their shared vertex; None for a simple
+/// polygon. Exact in f64 for f32 input.
+fn crossing_edges(poly: &[[f32; 2]]) -> Option<(usize, usize)> {
+    let n = poly.len();
+    let p = |i: usize| {
+        let v = poly[i % n];
+        [v[0] as f64, v[1] as f64]
+    };
+    // The side of `c` from the line `a → b`: −1, 0 or 1 (`signum` would call 0 positive).
+    let orient = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        let cross = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+        (cross > 0.0) as i8 - (cross < 0.0) as i8
+    };
+    let on = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
+        c[0] >= a[0].min(b[0])
+            && c[0] <= a[0].max(b[0])
+            && c[1] >= a[1].min(b[1])
+            && c[1] <= a[1].max(b[1])
+    };
+    let meet = |a: [f64; 2], b: [f64; 2], c: [f64; 2], d: [f64; 2]| {
+        let (o1, o2, o3, o4) = (
+            orient(a, b, c),
+            orient(a, b, d),
+            orient(c, d, a),
+            orient(c, d, b),
+        );
+        (o1 * o2 < 0 && o3 * o4 < 0)
+            || (o1 == 0 && on(a, b, c))
+            || (o2 == 0 && on(a, b, d))
+            || (o3 == 0 && on(c, d, a))
+            || (o4 == 0 && on(c, d, b))
+    };
+    for i in 0..n {
+        for j in i + 1..n {
+            let neighbours = j == i + 1 || (i == 0 && j == n - 1);
+            if neighbours {
+                // Adjacent edges share a vertex; they overlap only when folded back onto each
+                // other (the far end of one lies on the other).
+                let (a, b, c) = if j == i + 1 {
+                    (p(i), p(i + 1), p(j + 1))
+                } else {
+                    (p(j), p(0), p(1))
+                };
+                if orient(a, b, c) == 0
+                    && ((c[0] - b[0]) * (a[0] - b[0]) + (c[1] - b[1]) * (a[1] - b[1])) > 0.0
+                {
+                    return Some((i, j));
+                }
+                continue;
+            }
+            if meet(p(i), p(i + 1), p(j), p(j + 1)) {
+                return Some((i, j));
+            }
+        }
+    }
+    None
+}
+
 /// Even–odd point-in-polygon test.
 fn point_in_polygon(poly: &[[f32; 2]], x: f32, y: f32) -> bool {
     let mut inside = false;
@@ -1246,6 +1339,56 @@ mod tests {
             let e = sc.scene.build_objects().unwrap_err().to_string();
             assert!(e.starts_with("scene.objects[0].name:"), "{e}");
         }
+    }
+
+    #[test]
+    fn a_pair_given_twice_is_refused_naming_it() {
+        let mut sc = factory();
+        let p = PairSpec {
+            bs: sc.base_stations[0].name.clone(),
+            aperture: sc.apertures[0].name.clone(),
+        };
+        sc.pairs = vec![p.clone()];
+        sc.validate().unwrap();
+        sc.pairs.push(p);
+        let e = sc.validate().unwrap_err().to_string();
+        assert!(e.starts_with("pairs[1]:") && e.contains("unique"), "{e}");
+    }
+
+    #[test]
+    fn a_self_intersecting_region_polygon_is_refused() {
+        let mut sc = factory();
+        // A bow tie: area 0 by the signed formula would catch only the symmetric one; this one
+        // has non-zero signed area.
+        sc.imaging.region_polygon = Some(vec![
+            [-30.0, -20.0],
+            [30.0, 20.0],
+            [30.0, -10.0],
+            [-30.0, 20.0],
+        ]);
+        assert!(polygon_area(sc.imaging.region_polygon.as_ref().unwrap()).abs() > 1.0);
+        let e = sc.validate().unwrap_err().to_string();
+        assert!(
+            e.starts_with("imaging.region_polygon:") && e.contains("cross"),
+            "{e}"
+        );
+        // A polygon folded back along an edge is not simple either.
+        sc.imaging.region_polygon = Some(vec![
+            [-30.0, -20.0],
+            [30.0, -20.0],
+            [0.0, -20.0],
+            [0.0, 20.0],
+        ]);
+        sc.validate().unwrap_err();
+        // A concave simple polygon is fine.
+        sc.imaging.region_polygon = Some(vec![
+            [-30.0, -20.0],
+            [30.0, -20.0],
+            [30.0, 20.0],
+            [0.0, 0.0],
+            [-30.0, 20.0],
+        ]);
+        sc.validate().unwrap();
     }
 
     #[test]

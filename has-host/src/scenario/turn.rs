@@ -91,6 +91,9 @@ impl Scenario {
                 "a finite point",
             ));
         }
+        // One reduced angle for positions and azimuths alike: `to_radians` of a huge angle and
+        // its `rem_euclid(360)` are different turns.
+        let deg = deg.rem_euclid(360.0);
         let (sin, cos) = deg.to_radians().sin_cos();
         let t = Turn {
             about,
@@ -270,6 +273,23 @@ mod tests {
             Vec3::from(s.base_stations[0].position).distance(Vec3::from(s.apertures[0].end))
         };
         assert!((d(&s.turned(23.0, about).unwrap()) - d(&s)).abs() < 1e-3);
+    }
+
+    #[test]
+    fn a_huge_angle_turns_positions_and_boresights_by_the_same_angle() {
+        let s = fixture("fixtures/suite/office_pair.toml");
+        for deg in [1e30, -7.5e17, 1e9 + 0.5] {
+            let t = s.turned(deg, Vec2::ZERO).unwrap();
+            let want = deg.rem_euclid(360.0);
+            for (a, b) in t.base_stations.iter().zip(&s.base_stations) {
+                let az = |p: [f32; 3]| (p[1] as f64).atan2(p[0] as f64).to_degrees();
+                let moved = (az(a.position) - az(b.position)).rem_euclid(360.0);
+                let turned = (a.boresight_deg as f64 - b.boresight_deg as f64).rem_euclid(360.0);
+                let diff = |x: f64, y: f64| ((x - y + 180.0).rem_euclid(360.0) - 180.0).abs();
+                assert!(diff(moved, want) < 0.01, "{deg}: {moved} vs {want}");
+                assert!(diff(turned, want) < 0.01, "{deg}: {turned} vs {want}");
+            }
+        }
     }
 
     #[test]
