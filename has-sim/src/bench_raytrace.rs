@@ -96,7 +96,7 @@ fn raytrace(a: &RaytraceArgs) -> anyhow::Result<()> {
             a.rays
         );
     }
-    let paths_scene = has_host::scenario::load_scene(&a.paths_scene)
+    let paths_scene = has_host::scenario::load_scene(&a.paths_scene, None)
         .map_err(|e| anyhow::anyhow!("--paths-scene: {e}"))?;
     let report = has_host::bench::raytrace::run(a.cells, a.rays, a.seed, &paths_scene)?;
     if a.json {

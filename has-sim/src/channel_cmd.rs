@@ -21,7 +21,6 @@ use has_host::channel_experiment::{
     errors_by_param, errors_csv, run_channel_experiment, ue_map, ues_csv, ChannelReportFile,
     ChannelRunInfo, TraceStage, UeMap,
 };
-use has_host::io::obj::read_obj;
 use has_host::scenario::ChannelSpec;
 use has_host::scenario::Scenario;
 use has_host::Material;
@@ -44,7 +43,7 @@ pub struct ChannelArgs {
     /// quick-preset twin when it is reconstructed here.
     #[arg(long)]
     pub quick: bool,
-    /// The twin mesh (OBJ) to ray-trace; default: run `reconstruct` into DIR/twin first.
+    /// The twin mesh (OBJ or PLY) to ray-trace; default: run `reconstruct` into DIR/twin first.
     #[arg(long)]
     pub twin: Option<PathBuf>,
 }
@@ -114,7 +113,8 @@ pub fn run(args: ChannelArgs) -> Result<()> {
         None => build_twin(args.scenario.clone(), &args.out.join("twin"), args.quick)?,
     };
     let twin_s = t.elapsed().as_secs_f64();
-    let mesh = read_obj(&twin_path, Some(Material::Concrete)).context("--twin")?;
+    let mesh =
+        has_host::io::load_objects(&twin_path, Some(Material::Concrete)).context("--twin")?;
     let twin_view = triangle_soup(&mesh);
 
     let info = ChannelRunInfo {

@@ -6,8 +6,11 @@ use std::path::PathBuf;
 use anyhow::{bail, Context};
 use glam::Vec3;
 use has_host::io::ply;
+use has_host::knn::GeometryError;
 use has_host::mesh::{PoissonParams, ReconstructParams, Trim};
-use has_host::meshing::{self, MeshRunReport, MeshingOptions, WeightsUsed};
+use has_host::meshing::{
+    self, MeshInputError, MeshRunReport, MeshingError, MeshingOptions, WeightsUsed,
+};
 use has_host::metrics::CloudMetrics;
 
 /// Options of the `mesh` subcommand.
@@ -133,8 +136,97 @@ fn summary_line(name: &str, m: &CloudMetrics) -> String {
     )
 }
 
+/// The flag of a library parameter of the mesher ([`has_host::mesh`], [`has_host::metrics`]),
+/// so that an error names what the user typed.
+fn flag_of(field: &str) -> Option<&'static str> {
+    Some(match field {
+        "depth" => "--depth",
+        "cell_m" => "--cell",
+        "screening" => "--screening",
+        "band" => "--band",
+        "dense_max_nodes" => "--dense-max-nodes",
+        "normal_k" | "k" => "--k",
+        "trim_quantile" | "quantile" => "--trim",
+        "trim_median" | "median_fraction" => "--trim-median",
+        "min_component_fraction" => "--min-component",
+        "support_distance_m" => "--support-distance",
+        "clip_box" => "--clip-min/--clip-max",
+        "density_per_m2" => "--truth-density",
+        "weight_power" => "--weight-power",
+        f if f.starts_with("band") => "--band",
+        _ => return None,
+    })
+}
+
+/// `e` prefixed by the flag of the mesher parameter it names, if it names one.
+fn name_flag(e: anyhow::Error) -> anyhow::Error {
+    let of = |g: &GeometryError| match g {
+        GeometryError::BadParameter { field, .. } => Some(*field),
+        _ => None,
+    };
+    let field = e.chain().find_map(|c| {
+        if let Some(g) = c.downcast_ref::<GeometryError>() {
+            of(g)
+        } else if let Some(MeshingError::Normals(g) | MeshingError::Surface(g)) =
+            c.downcast_ref::<MeshingError>()
+        {
+            of(g)
+        } else if let Some(MeshInputError::TruthSamples(g)) = c.downcast_ref::<MeshInputError>() {
+            of(g)
+        } else {
+            None
+        }
+    });
+    match field.and_then(flag_of) {
+        Some(flag) => e.context(flag),
+        None => e,
+    }
+}
+
+/// Checks the flags no file is needed for, before reading anything.
+fn check_args(a: &MeshArgs) -> anyhow::Result<()> {
+    if !(a.min_component.is_finite() && (0.0..1.0).contains(&a.min_component)) {
+        bail!(
+            "--min-component: {} is not a fraction in [0, 1)",
+            a.min_component
+        );
+    }
+    if let Some(c) = a.cell.filter(|c| !(c.is_finite() && *c > 0.0)) {
+        bail!("--cell: {c} m is not a positive length");
+    }
+    if let Some(d) = a.support_distance.filter(|d| !(d.is_finite() && *d > 0.0)) {
+        bail!("--support-distance: {d} m is not a positive length");
+    }
+    if !(a.truth_density.is_finite() && a.truth_density > 0.0) {
+        bail!(
+            "--truth-density: {} is not a positive density",
+            a.truth_density
+        );
+    }
+    if let (Some(lo), Some(hi)) = (&a.clip_min, &a.clip_max) {
+        if !lo.iter().chain(hi).all(|v| v.is_finite()) || lo.iter().zip(hi).any(|(l, h)| l > h) {
+            bail!("--clip-max: {hi:?} is not finite and at least --clip-min {lo:?} on every axis");
+        }
+    }
+    for (flag, p) in [
+        ("--out", Some(&a.out)),
+        ("--ply", a.ply.as_ref()),
+        ("--report", a.report.as_ref()),
+    ] {
+        if let Some(p) = p {
+            crate::run_dir::check_output_file(flag, p)?;
+        }
+    }
+    Ok(())
+}
+
 /// Runs the subcommand.
 pub fn run(a: MeshArgs) -> anyhow::Result<()> {
+    check_args(&a)?;
+    run_checked(a).map_err(name_flag)
+}
+
+fn run_checked(a: MeshArgs) -> anyhow::Result<()> {
     if let Some(q) = a.trim {
         if !(0.0..1.0).contains(&q) {
             bail!("--trim: {q} is not a quantile in [0, 1)");

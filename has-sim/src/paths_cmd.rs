@@ -16,6 +16,10 @@ pub struct PathsArgs {
     /// PLY mesh.
     #[arg(long)]
     pub scene: PathBuf,
+    /// For an OBJ, PLY or XML scene: every object's radio material (ITU-R P.2040 name); a PLY
+    /// file carries none and needs it.
+    #[arg(long, value_parser = crate::scene_cmd::parse_material)]
+    pub material: Option<has_host::Material>,
     /// Transmitter position "X,Y,Z" in metres.
     #[arg(long, allow_hyphen_values = true)]
     pub tx: String,
@@ -67,15 +71,16 @@ fn parse_point(flag: &str, s: &str) -> anyhow::Result<DVec3> {
 }
 
 /// A tracer result with its error prefixed by the flag it is about (the library names its
-/// own fields: `tx`, `frequency_hz`, `sbr_rays`).
-fn traced<T>(r: Result<T, PathError>) -> anyhow::Result<T> {
+/// own fields: `tx`, `frequency_hz`, `sbr_rays`); `rx_flag` is the flag the receivers came
+/// from (`--rx` or `--rx-file`).
+fn traced<T>(r: Result<T, PathError>, rx_flag: &str) -> anyhow::Result<T> {
     r.map_err(|e| {
         let flag = match &e {
             PathError::NonFinitePosition { what, .. } | PathError::FarPosition { what, .. } => {
                 if *what == "tx" {
                     "--tx"
                 } else {
-                    "--rx"
+                    rx_flag
                 }
             }
             PathError::MaterialFrequency { .. } => "--freq-ghz",
@@ -91,8 +96,10 @@ fn traced<T>(r: Result<T, PathError>) -> anyhow::Result<T> {
     })
 }
 
-/// The baseband offsets of --cfr-subcarriers at --cfr-spacing-khz: `(k − N/2)·Δf`, k = 0..N.
-fn cfr_grid(args: &PathsArgs) -> anyhow::Result<Option<Vec<f64>>> {
+/// The baseband offsets of --cfr-subcarriers at --cfr-spacing-khz: `(k − N/2)·Δf`, k = 0..N,
+/// for `receivers`; the band must stay above 0 Hz (half of it below the carrier), and the
+/// arrays must fit in memory.
+fn cfr_grid(args: &PathsArgs, receivers: usize) -> anyhow::Result<Option<Vec<f64>>> {
     let Some(n) = args.cfr_subcarriers else {
         return Ok(None);
     };
@@ -106,6 +113,19 @@ fn cfr_grid(args: &PathsArgs) -> anyhow::Result<Option<Vec<f64>>> {
             args.cfr_spacing_khz
         );
     }
+    let half_band = (n / 2).max(1) as f64 * df;
+    if half_band >= args.freq_ghz * 1e9 {
+        anyhow::bail!(
+            "--cfr-spacing-khz: {} kHz × {n} subcarriers spans {:.4e} Hz, more than twice the \
+             carrier (--freq-ghz {}): the band must lie above 0 Hz",
+            args.cfr_spacing_khz,
+            n as f64 * df,
+            args.freq_ghz
+        );
+    }
+    // Before tracing: the response alone, whatever the path count.
+    has_host::paths::arrays::check_arrays_size(receivers, 0, n)
+        .map_err(|e| anyhow::anyhow!("--cfr-subcarriers: {e}"))?;
     Ok(Some(
         (0..n).map(|k| (k as f64 - (n / 2) as f64) * df).collect(),
     ))
@@ -134,23 +154,31 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
     if args.rays == 0 {
         anyhow::bail!("--rays: 0 (need at least 1)");
     }
-    let freqs = cfr_grid(&args)?;
+    let freqs = cfr_grid(&args, rxs.len())?;
     // Flattened into one line: the scene errors already name the file and the cause.
-    let scene =
-        has_host::scenario::load_scene(&args.scene).map_err(|e| anyhow::anyhow!("--scene: {e}"))?;
-    let tracer = traced(Tracer::new(
-        &scene,
-        TracerConfig {
-            frequency_hz: args.freq_ghz * 1e9,
-            max_order: args.max_order,
-            candidates: if args.exhaustive {
-                CandidateMode::Exhaustive
-            } else {
-                CandidateMode::Sbr { rays: args.rays }
+    let scene = has_host::scenario::load_scene(&args.scene, args.material)
+        .map_err(|e| anyhow::anyhow!("--scene: {e}"))?;
+    let rx_flag = if args.rx.is_some() {
+        "--rx"
+    } else {
+        "--rx-file"
+    };
+    let tracer = traced(
+        Tracer::new(
+            &scene,
+            TracerConfig {
+                frequency_hz: args.freq_ghz * 1e9,
+                max_order: args.max_order,
+                candidates: if args.exhaustive {
+                    CandidateMode::Exhaustive
+                } else {
+                    CandidateMode::Sbr { rays: args.rays }
+                },
+                ..TracerConfig::default()
             },
-            ..TracerConfig::default()
-        },
-    ))?;
+        ),
+        rx_flag,
+    )?;
     let ends =
         std::iter::once(("--tx".to_string(), tx)).chain(rxs.iter().enumerate().map(|(i, &p)| {
             let flag = if args.rx.is_some() {
@@ -172,8 +200,8 @@ pub fn run(args: PathsArgs) -> anyhow::Result<()> {
             );
         }
     }
-    let cand = traced(tracer.prepare_tx(tx))?;
-    let all = traced(tracer.trace_many(&cand, &rxs))?;
+    let cand = traced(tracer.prepare_tx(tx), rx_flag)?;
+    let all = traced(tracer.trace_many(&cand, &rxs), rx_flag)?;
     let lambda = has_host::wavelength_m(args.freq_ghz * 1e9);
     if rxs.iter().any(|&rx| (rx - tx).length() < lambda) {
         eprintln!(

@@ -84,6 +84,28 @@ impl RunDir {
     }
 }
 
+/// Checks, before any work, that the output file of `flag` can be written: its directory
+/// exists, and the file is absent or a regular file this run did not read
+/// ([`has_host::io::guard::check_output`]).
+///
+/// # Errors
+/// One line naming the flag and the path.
+pub fn check_output_file(flag: &str, path: &Path) -> Result<()> {
+    let dir = match path.parent() {
+        Some(d) if !d.as_os_str().is_empty() => d,
+        _ => Path::new("."),
+    };
+    if !dir.is_dir() {
+        anyhow::bail!(
+            "{flag}: {}: the directory {} does not exist",
+            path.display(),
+            dir.display()
+        );
+    }
+    has_host::io::guard::check_output(path)
+        .map_err(|msg| anyhow::anyhow!("{flag}: {}: {msg}", path.display()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -15,26 +15,46 @@ use has_host::Scene;
 pub enum SceneCmd {
     /// Write the scene's triangles to an OBJ (objects and materials kept) or PLY file.
     Export {
-        /// Scene file: .toml, .xml (Mitsuba / Sionna RT) or .obj.
+        /// Scene file: .toml, .xml (Mitsuba / Sionna RT), .obj or .ply.
         #[arg(long)]
         scene: PathBuf,
         /// Output file, .obj or .ply.
         #[arg(long)]
         out: PathBuf,
+        /// For a mesh scene file: every object's material (a PLY file carries none).
+        #[arg(long, value_parser = parse_material)]
+        material: Option<has_host::Material>,
     },
     /// Print the objects with materials, triangle counts and bounds.
     Info {
-        /// Scene file: .toml, .xml (Mitsuba / Sionna RT) or .obj.
+        /// Scene file: .toml, .xml (Mitsuba / Sionna RT), .obj or .ply.
         #[arg(long)]
         scene: PathBuf,
+        /// For a mesh scene file: every object's material (a PLY file carries none).
+        #[arg(long, value_parser = parse_material)]
+        material: Option<has_host::Material>,
     },
+}
+
+/// A radio material by its ITU-R P.2040 name (`concrete` or `itu_concrete`), for clap.
+pub fn parse_material(s: &str) -> Result<has_host::Material, String> {
+    has_host::Material::from_name(s).ok_or_else(|| {
+        format!(
+            "unknown material '{s}'; known: {}",
+            has_host::io::known_material_names()
+        )
+    })
 }
 
 /// Runs a scene subcommand.
 pub fn run(cmd: SceneCmd) -> anyhow::Result<()> {
     match cmd {
-        SceneCmd::Export { scene, out } => {
-            let objects = load_scene_objects(&scene)?;
+        SceneCmd::Export {
+            scene,
+            out,
+            material,
+        } => {
+            let objects = load_scene_objects(&scene, material)?;
             let tris: usize = objects.iter().map(|o| o.triangles.len()).sum();
             has_host::io::save_objects(&out, &objects)
                 .with_context(|| format!("exporting {}", scene.display()))?;
@@ -45,8 +65,8 @@ pub fn run(cmd: SceneCmd) -> anyhow::Result<()> {
             );
             Ok(())
         }
-        SceneCmd::Info { scene } => {
-            let objects = load_scene_objects(&scene)?;
+        SceneCmd::Info { scene, material } => {
+            let objects = load_scene_objects(&scene, material)?;
             println!(
                 "{:<24} {:<18} {:>9}  {:>28}  {:>28}",
                 "object", "material", "triangles", "min (m)", "max (m)"
@@ -88,13 +108,14 @@ mod tests {
         let dir = std::env::temp_dir().join(format!("has-scene-cmd-{}", std::process::id()));
         std::fs::create_dir_all(&dir).unwrap();
         let scene = fixture("city_block.toml");
-        let want = load_scene_objects(&scene).unwrap();
+        let want = load_scene_objects(&scene, None).unwrap();
         let n: usize = want.iter().map(|o| o.triangles.len()).sum();
         for ext in ["obj", "ply"] {
             let out = dir.join(format!("city.{ext}"));
             run(SceneCmd::Export {
                 scene: scene.clone(),
                 out: out.clone(),
+                material: None,
             })
             .unwrap();
             let back =
@@ -103,6 +124,7 @@ mod tests {
         }
         run(SceneCmd::Info {
             scene: fixture("sionna_small/scene.xml"),
+            material: None,
         })
         .unwrap();
         std::fs::remove_dir_all(&dir).unwrap();
@@ -113,12 +135,14 @@ mod tests {
         let e = run(SceneCmd::Export {
             scene: fixture("no_such_scene.toml"),
             out: std::env::temp_dir().join("x.obj"),
+            material: None,
         })
         .unwrap_err();
         assert!(format!("{e:#}").contains("no_such_scene.toml"), "{e:#}");
         let e = run(SceneCmd::Export {
             scene: fixture("city_block.toml"),
             out: std::env::temp_dir().join("x.stl"),
+            material: None,
         })
         .unwrap_err();
         assert!(format!("{e:#}").contains("'stl'"), "{e:#}");

@@ -13,7 +13,7 @@
 
 use std::path::{Path, PathBuf};
 
-use anyhow::{bail, Context, Result};
+use anyhow::{bail, Result};
 use clap::Args;
 use has_host::suite::{self, SuiteReport};
 
@@ -47,6 +47,9 @@ pub struct SuiteArgs {
     pub seeds: u64,
 }
 
+/// The files `suite` writes at the top of its output directory ([`crate::run_dir`]).
+pub const OUTPUTS: [&str; 2] = ["suite.json", "suite.md"];
+
 /// Runs the command.
 pub fn run(args: SuiteArgs) -> Result<()> {
     let dir = match &args.suite_dir {
@@ -62,8 +65,9 @@ pub fn run(args: SuiteArgs) -> Result<()> {
     }
     let sites = suite::select(&suite::discover(&dir)?, &args.sites)
         .map_err(|e| anyhow::anyhow!("--sites: {e}"))?;
-    std::fs::create_dir_all(&args.out)
-        .with_context(|| format!("creating {}", args.out.display()))?;
+    // The earlier run's table goes, and a marker shows the run is unfinished until the new
+    // table is written.
+    let run_dir = crate::run_dir::RunDir::start(&args.out, &OUTPUTS)?;
     let preset = if args.quick { "quick" } else { "default" };
     let mut rows = Vec::new();
     for (k, site) in sites.iter().enumerate() {
@@ -112,6 +116,8 @@ pub fn run(args: SuiteArgs) -> Result<()> {
         std::io::Write::write_all(w, md.as_bytes())
     })?;
     println!("\n{md}");
+    // The table is complete, failed sites included.
+    run_dir.finish()?;
     if !failed.is_empty() {
         bail!(
             "{} of {} suite sites failed: {} (see {})",

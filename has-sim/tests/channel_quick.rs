@@ -6,8 +6,9 @@ mod common;
 
 use std::process::Command;
 
-/// A twin that is not a mesh (here the scenario file itself) is an error naming the file, not
-/// a twin with no faces that blocks nothing and scores 0 errors.
+/// A twin that is not a mesh (here the scenario file itself) is an error naming the file (read
+/// by its extension, as every mesh input is), not a twin with no faces that blocks nothing and
+/// scores 0 errors.
 #[test]
 fn a_twin_that_is_not_a_mesh_fails_with_one_line() {
     let dir = common::out_dir("channel-twin-not-mesh");
@@ -25,7 +26,10 @@ fn a_twin_that_is_not_a_mesh_fails_with_one_line() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(!out.status.success());
     assert_eq!(err.trim_end().lines().count(), 1, "{err}");
-    assert!(err.contains("factory.toml: no faces"), "{err}");
+    assert!(
+        err.contains("factory.toml: unsupported: file extension 'toml'"),
+        "{err}"
+    );
     assert!(!dir.join("report.json").exists());
     let _ = std::fs::remove_dir_all(&dir);
 }

@@ -260,7 +260,7 @@ pub fn load_objects(path: &Path, material: Option<Material>) -> Result<Vec<Objec
         "ply" => {
             let m = material.ok_or_else(|| MeshIoError::Unsupported {
                 path: path.to_path_buf(),
-                what: "a PLY file carries no material; give one".into(),
+                what: "a PLY file carries no material; give one (`--material`)".into(),
             })?;
             let data = ply::read_ply(path)?;
             vec![Object {

@@ -182,7 +182,7 @@ fn check_params(p: &PoissonParams) -> Result<(), GeometryError> {
     if !(1..=10).contains(&p.depth) {
         return Err(bad("depth", p.depth as f64, "in 1..=10"));
     }
-    if p.levels >= p.depth {
+    if p.levels >= p.depth && p.cell_m.is_none() {
         return Err(bad("levels", p.levels as f64, "smaller than depth"));
     }
     if !(p.screening.is_finite() && p.screening >= 0.0) {
@@ -523,6 +523,18 @@ pub fn screened_poisson_weighted(
     params: &PoissonParams,
 ) -> Result<PoissonOutput, GeometryError> {
     check_params(params)?;
+    // With the cell fixed in metres, the depth only says how many cells span the cloud
+    // ([`depth_for_cell`]): the cascade then has at most `depth − 1` coarser levels.
+    let clamped;
+    let params = if params.cell_m.is_some() && params.levels >= params.depth {
+        clamped = PoissonParams {
+            levels: params.depth - 1,
+            ..params.clone()
+        };
+        &clamped
+    } else {
+        params
+    };
     check_points("points", points)?;
     let rel_weights = match weights {
         None => None,
@@ -589,10 +601,15 @@ pub fn screened_poisson_weighted(
     for a in 0..3 {
         let o = ((lo[a] as f64 - pad_cells as f64 * h as f64) / coarse).floor();
         let top = ((hi[a] as f64 + pad_cells as f64 * h as f64) / coarse).ceil();
-        cells[a] = ((top - o).max(1.0) as usize) * unit;
+        cells[a] = ((top - o).max(1.0) as usize).saturating_mul(unit);
         origin[a] = (o * coarse) as f32;
     }
-    let full_nodes = |j: u32| -> usize { cells.iter().map(|c| c / (1 << j) + 1).product() };
+    let full_nodes = |j: u32| -> usize {
+        cells
+            .iter()
+            .map(|c| c / (1 << j) + 1)
+            .fold(1usize, usize::saturating_mul)
+    };
     // Levels 0 (finest) ..= levels; level j is banded when it is too large as a full grid
     // (node counts fall with j, so the banded levels are the finest ones).
     let banded = |j: u32| {
@@ -602,11 +619,19 @@ pub fn screened_poisson_weighted(
         .find(|&j| !banded(j))
         .unwrap_or(params.levels);
     if full_nodes(finest_dense) > MAX_NODES {
-        return Err(bad(
-            "depth",
-            params.depth as f64,
-            "small enough that the finest full grid has at most 40 M nodes (or use a band)",
-        ));
+        // The finest grid is set by the cell when one is given, else by the depth.
+        return Err(match params.cell_m {
+            Some(c) => bad(
+                "cell_m",
+                c as f64,
+                "large enough that the finest full grid has at most 40 M nodes (or use a band)",
+            ),
+            None => bad(
+                "depth",
+                params.depth as f64,
+                "small enough that the finest full grid has at most 40 M nodes (or use a band)",
+            ),
+        });
     }
     // Per-sample area share aₚ = π r_k² / k.
     let index = PointIndex::new("points", points)?;
@@ -953,6 +978,35 @@ mod tests {
         assert!(trim_by_density(&m, &[], 1.0).is_err());
         assert!(trim_by_density(&m, &[], -0.1).is_err());
         assert!(trim_by_density(&m, &[1.0], 0.5).is_err());
+    }
+
+    #[test]
+    fn a_coarse_cell_in_metres_meshes_with_fewer_levels_and_a_too_fine_one_names_the_cell() {
+        // A 10 m cell on a 20 m sphere: the depth of that cell is 2, below the default 4
+        // levels; the cascade takes what the grid allows instead of failing on `levels`.
+        let (pts, nrm) = sphere(2000, 10.0, Vec3::ZERO);
+        let cell = 10.0;
+        let depth = depth_for_cell(&pts, PoissonParams::default().padding, cell);
+        assert!(depth <= PoissonParams::default().levels, "{depth}");
+        let p = PoissonParams {
+            depth,
+            cell_m: Some(cell),
+            ..PoissonParams::default()
+        };
+        let out = screened_poisson(&pts, &nrm, &p).unwrap();
+        assert!(!out.mesh.faces.is_empty());
+        let fine = PoissonParams {
+            band: None,
+            cell_m: Some(1e-5),
+            ..PoissonParams::default()
+        };
+        assert!(matches!(
+            screened_poisson(&pts, &nrm, &fine),
+            Err(GeometryError::BadParameter {
+                field: "cell_m",
+                ..
+            })
+        ));
     }
 
     #[test]

@@ -303,21 +303,32 @@ pub enum SceneSpecError {
 }
 
 /// Loads the objects of a scene file of any supported kind: a TOML scenario (its `[scene]`
-/// table, see [`SceneSpec`]), a Mitsuba XML scene, or an OBJ file with `usemtl` materials.
-pub fn load_scene_objects(path: &Path) -> Result<Vec<Object>, SceneSpecError> {
+/// table, see [`SceneSpec`]), a Mitsuba XML scene, an OBJ file with `usemtl` materials, or a
+/// PLY mesh. `material`, for a mesh file, replaces every object's material (a PLY file has none
+/// and needs it); a TOML scene names its own, and is refused with one.
+pub fn load_scene_objects(
+    path: &Path,
+    material: Option<Material>,
+) -> Result<Vec<Object>, SceneSpecError> {
     let is_toml = path
         .extension()
         .is_some_and(|e| e.eq_ignore_ascii_case("toml"));
     if is_toml {
+        if material.is_some() {
+            return Err(SceneSpecError::MeshFile(MeshIoError::Unsupported {
+                path: path.to_path_buf(),
+                what: "a material for a TOML scene, whose objects name their own".into(),
+            }));
+        }
         SceneSpec::load(path)?.build_objects()
     } else {
-        Ok(io::load_objects(path, None)?)
+        Ok(io::load_objects(path, material)?)
     }
 }
 
 /// [`load_scene_objects`] and build the BVH.
-pub fn load_scene(path: &Path) -> Result<Scene, SceneSpecError> {
-    Ok(Scene::new(load_scene_objects(path)?)?)
+pub fn load_scene(path: &Path, material: Option<Material>) -> Result<Scene, SceneSpecError> {
+    Ok(Scene::new(load_scene_objects(path, material)?)?)
 }
 
 #[derive(Deserialize)]
@@ -354,7 +365,7 @@ impl SceneSpec {
             .map(|f| f.scene)
             .map_err(|e| SceneSpecError::Toml {
                 path: path.to_path_buf(),
-                msg: e.to_string().trim_end().to_string(),
+                msg: super::error::one_line_toml_error(text, &e),
             })
     }
 
