@@ -139,6 +139,102 @@ fn reading_a_run_s_pair_clouds_back_reproduces_its_cloud_without_imaging() {
     ]);
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(!o.status.success() && err.contains("--from-pairs"), "{err}");
+    // Another scenario under the run's file name, and another seed, are refused by content: a
+    // copy of the run whose report names `other/factory.toml`, and that file with another SNR.
+    let other = out.join("other");
+    std::fs::create_dir_all(&other).unwrap();
+    let factory = std::fs::read_to_string(
+        Path::new(env!("CARGO_MANIFEST_DIR")).join("../fixtures/factory.toml"),
+    )
+    .unwrap();
+    assert!(factory.contains("snr_db = 10.0"));
+    let renamed = other.join("factory.toml");
+    std::fs::write(&renamed, factory.replace("snr_db = 10.0", "snr_db = 12.0")).unwrap();
+    let copy_run = |name: &str| {
+        let copy = out.join(name);
+        std::fs::create_dir_all(&copy).unwrap();
+        for e in std::fs::read_dir(&twin).unwrap() {
+            let e = e.unwrap();
+            let file = e.file_name().to_string_lossy().into_owned();
+            if file.starts_with("pair_") {
+                std::fs::copy(e.path(), copy.join(&file)).unwrap();
+            }
+        }
+        let mut report = common::read_report(&twin);
+        report["scenario"] = serde_json::Value::from(renamed.to_string_lossy().into_owned());
+        std::fs::write(copy.join("report.json"), report.to_string()).unwrap();
+        copy
+    };
+    let again = out.join("again");
+    let refused = |args: &[&std::ffi::OsStr], word: &str| {
+        let o = run(args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert!(!o.status.success() && err.contains(word), "{err}");
+        assert!(!again.join("report.json").exists());
+    };
+    let same_name = copy_run("same_name");
+    refused(
+        &[
+            renamed.as_os_str(),
+            "--quick".as_ref(),
+            "--no-mesh".as_ref(),
+            "--from-pairs".as_ref(),
+            same_name.as_os_str(),
+            "--out".as_ref(),
+            again.as_os_str(),
+        ],
+        "scenario digest",
+    );
+    refused(
+        &[
+            "--quick".as_ref(),
+            "--no-mesh".as_ref(),
+            "--seed".as_ref(),
+            "5".as_ref(),
+            "--from-pairs".as_ref(),
+            twin.as_os_str(),
+            "--out".as_ref(),
+            again.as_os_str(),
+        ],
+        "seed 5",
+    );
+    // A pair cloud with a point far outside the region is refused naming the file.
+    let far = out.join("pairs_far");
+    std::fs::create_dir_all(&far).unwrap();
+    for e in std::fs::read_dir(&twin).unwrap() {
+        let e = e.unwrap();
+        let file = e.file_name().to_string_lossy().into_owned();
+        if file == "report.json" || file.starts_with("pair_") {
+            std::fs::copy(e.path(), far.join(&file)).unwrap();
+        }
+    }
+    let victim = std::fs::read_dir(&far)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .find(|p| {
+            p.file_name()
+                .unwrap()
+                .to_string_lossy()
+                .starts_with("pair_")
+        })
+        .unwrap();
+    let mut data = has_host::io::ply::read_ply(&victim).unwrap();
+    data.vertices[0] = glam::Vec3::new(1e30, 0.0, 0.0);
+    std::fs::remove_file(&victim).unwrap();
+    has_host::io::ply::write_ply(&victim, &data, has_host::io::PlyFormat::BinaryLittleEndian)
+        .unwrap();
+    let name = victim.file_name().unwrap().to_string_lossy().into_owned();
+    refused(
+        &[
+            "--quick".as_ref(),
+            "--no-mesh".as_ref(),
+            "--from-pairs".as_ref(),
+            far.as_os_str(),
+            "--out".as_ref(),
+            again.as_os_str(),
+        ],
+        &name,
+    );
 }
 
 /// The written OBJ as Open3D sees it: loaded with bit-identical vertices welded (has's reader,

@@ -194,3 +194,34 @@ fn bad_suite_arguments_fail_with_one_line() {
     }
     let _ = std::fs::remove_dir_all(&dir);
 }
+
+#[test]
+fn a_killed_suite_is_marked_unfinished_and_keeps_no_earlier_table() {
+    let dir = common::out_dir("suite-killed");
+    std::fs::create_dir_all(&dir).unwrap();
+    for f in ["suite.json", "suite.md"] {
+        std::fs::write(dir.join(f), "an earlier run's table").unwrap();
+    }
+    let mut child = Command::new(env!("CARGO_BIN_EXE_has-sim"))
+        .args(["suite", "--quick", "--sites", "office_pair", "--suite-dir"])
+        .arg(suite_dir())
+        .arg("--out")
+        .arg(&dir)
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .expect("has-sim runs");
+    // Wait until the site's own run has started (its marker), then kill the suite.
+    let t0 = std::time::Instant::now();
+    while !dir.join("office_pair").join("RUNNING").exists()
+        && t0.elapsed() < std::time::Duration::from_secs(120)
+    {
+        assert!(child.try_wait().unwrap().is_none(), "suite ended early");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    child.kill().unwrap();
+    child.wait().unwrap();
+    assert!(dir.join("RUNNING").exists(), "no top-level marker");
+    assert!(!dir.join("suite.json").exists() && !dir.join("suite.md").exists());
+    let _ = std::fs::remove_dir_all(&dir);
+}
