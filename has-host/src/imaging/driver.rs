@@ -622,9 +622,11 @@ pub fn image_pair(
 /// The width of the band a pair images past the region, metres: the coarser of its range and
 /// panel's horizontal cross-range resolution at the region's centre, plus one coarse voxel. An
 /// echo outside the region lays its main lobe into it no farther than that; imaged, it is found
-/// where it peaks and explains its image inside ([`super::sidelobes`]).
+/// where it peaks and explains its image inside ([`super::sidelobes`]). At most the region's
+/// own larger horizontal side: a pair that resolves less than the region cannot image it anyway.
 pub(crate) fn region_guard_m(sc: &Scenario, plan: &PairPlan) -> f32 {
     let (lo, hi) = sc.region();
+    let side = (hi.x - lo.x).max(hi.y - lo.y).max(0.0);
     let (r, _, xh, _) = pair_resolution_m(
         (lo + hi) * 0.5,
         &sc.array(plan.bs),
@@ -632,7 +634,7 @@ pub(crate) fn region_guard_m(sc: &Scenario, plan: &PairPlan) -> f32 {
         sc.wavelength_m() as f32,
         (sc.radar.bandwidth_mhz * 1e6) as f32,
     );
-    r.max(xh) + sc.imaging.coarse_voxel_m
+    (r.max(xh) + sc.imaging.coarse_voxel_m).min(side)
 }
 
 /// [`image_pair`] over the region grown by the guard band (`sc`), keeping only the detections

@@ -281,28 +281,55 @@ mod tests {
         (array, aperture)
     }
 
+    /// The panel of [`geometry`] with every element and one transmit position, Hann pulse.
+    struct Pair {
+        pulse: PulseKernel,
+        bin_m: f32,
+        array: PlanarArray,
+        aperture: VirtualAperture,
+        rx: Vec<Vec3>,
+        tx: [Vec3; 1],
+    }
+
+    impl Pair {
+        fn new() -> Pair {
+            let (pulse, bin_m) = hann_pulse();
+            let (array, aperture) = geometry(10.0);
+            Pair {
+                pulse,
+                bin_m,
+                rx: array.elements(1),
+                tx: [aperture.start],
+                array,
+                aperture,
+            }
+        }
+
+        fn psf(&self) -> PairPsf<'_> {
+            PairPsf {
+                tx: &self.tx,
+                rx: &self.rx,
+                pulse: &self.pulse,
+                bin_m: self.bin_m,
+                wavelength_m: LAMBDA,
+                array: &self.array,
+                aperture: &self.aperture,
+                bandwidth_hz: 400e6,
+                range_main_lobe_cells: 2.0,
+            }
+        }
+    }
+
     #[test]
     fn the_point_spread_function_is_the_panels_array_factor_across_its_beam() {
         // u and v 1 m apart vertically, straddling the panel's and the transmitter's height: the
         // transmit leg and the panel's centre see both at one range, and across the panel's rows
         // the path differs by (z_e − z0)·Δz/R — the elevation array factor of 16 rows at λ/2,
         // |sin(Nψ/2)/(N sin(ψ/2))|², ψ = 2π·(λ/2)·Δz/(λR) (far field, 60 m ≫ 2D²/λ = 0.12 m).
-        let (pulse, bin_m) = hann_pulse();
         let (u, v) = (Vec3::new(0.0, 0.0, 9.5), Vec3::new(0.0, 0.0, 10.5));
-        let (array, aperture) = geometry(10.0);
-        let rx = array.elements(1);
-        let tx = [aperture.start];
-        let psf = PairPsf {
-            tx: &tx,
-            rx: &rx,
-            pulse: &pulse,
-            bin_m,
-            wavelength_m: LAMBDA,
-            array: &array,
-            aperture: &aperture,
-            bandwidth_hz: 400e6,
-            range_main_lobe_cells: 2.0,
-        };
+        let pair = Pair::new();
+        let psf = pair.psf();
+        let array = &pair.array;
         assert!((psf.relative_power(u, u) - 1.0).abs() < 1e-4);
         let r = u.distance(array.centre);
         for dz in [0.3f32, 1.0, 2.2, 4.0] {
@@ -326,21 +353,8 @@ mod tests {
     #[test]
     fn a_detection_no_stronger_than_a_stronger_echos_sidelobe_is_one_and_a_main_lobe_neighbour_is_not(
     ) {
-        let (pulse, bin_m) = hann_pulse();
-        let (array, aperture) = geometry(10.0);
-        let rx = array.elements(1);
-        let tx = [aperture.start];
-        let psf = PairPsf {
-            tx: &tx,
-            rx: &rx,
-            pulse: &pulse,
-            bin_m,
-            wavelength_m: LAMBDA,
-            array: &array,
-            aperture: &aperture,
-            bandwidth_hz: 400e6,
-            range_main_lobe_cells: 2.0,
-        };
+        let pair = Pair::new();
+        let psf = pair.psf();
         // The panel's vertical cross-range at 60 m: λR/H = 60·2/16 = 7.5 m; its first sidelobe
         // peaks near 1.43 cells, 10.7 m from the echo, at ρ ≈ 0.047 — on the echo's range shell
         // (both straddle the heights of the panel and the transmitter).

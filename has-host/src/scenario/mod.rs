@@ -316,8 +316,10 @@ pub struct ImagingSpec {
     pub sidelobe_test: bool,
     /// Image a band past the region (the pair's coarsest horizontal resolution cell) whose
     /// detections serve only as the sources of the sidelobe test: what stands outside the
-    /// region is judged where its echo peaks ([`crate::imaging::driver`]).
-    #[serde(default = "default_true")]
+    /// region is judged where its echo peaks ([`crate::imaging::driver`]). Off by default: on the
+    /// suite's street_row it cost 0.05 m of the quick cloud's and mesh's √CD, and on a real site
+    /// recall (docs/journal/real-sites.md).
+    #[serde(default)]
     pub guard_band: bool,
     /// Drop fused points that a finer pair places at another height: copies of a roof (a
     /// surface crossing the vertical) within the vertical resolution of the coarse pairs that
