@@ -316,9 +316,8 @@ pub struct ImagingSpec {
     pub sidelobe_test: bool,
     /// Image a band past the region (the pair's coarsest horizontal resolution cell) whose
     /// detections serve only as the sources of the sidelobe test: what stands outside the
-    /// region is judged where its echo peaks ([`crate::imaging::driver`]). Off by default: on the
-    /// suite's street_row it cost 0.05 m of the quick cloud's and mesh's √CD, and on a real site
-    /// recall (docs/journal/real-sites.md).
+    /// region is judged where its echo peaks ([`crate::imaging::driver`]). Off by default: it cost
+    /// the quick cloud's and mesh's √CD 0.05 m on a procedural site, and recall on a real one.
     #[serde(default)]
     pub guard_band: bool,
     /// Drop fused points that a finer pair places at another height: copies of a roof (a
