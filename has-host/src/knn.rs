@@ -112,13 +112,13 @@ pub fn check_points(field: &'static str, points: &[Vec3]) -> Result<(), Geometry
 /// A k-d tree over a fixed set of points.
 pub struct PointIndex {
     tree: ImmutableKdTree<f32, 3>,
-    len: usize,
+    points: Vec<Vec3>,
 }
 
 impl std::fmt::Debug for PointIndex {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("PointIndex")
-            .field("len", &self.len)
+            .field("len", &self.points.len())
             .finish()
     }
 }
@@ -140,18 +140,23 @@ impl PointIndex {
             })?;
         Ok(PointIndex {
             tree,
-            len: points.len(),
+            points: points.to_vec(),
         })
     }
 
     /// Number of points in the index.
     pub fn len(&self) -> usize {
-        self.len
+        self.points.len()
+    }
+
+    /// The indexed point `i` (an index from a query).
+    pub fn point(&self, i: u32) -> Vec3 {
+        self.points[i as usize]
     }
 
     /// Always false: an index is never empty.
     pub fn is_empty(&self) -> bool {
-        self.len == 0
+        self.points.is_empty()
     }
 
     /// Nearest point to `q`: (index, squared distance in m²).
@@ -172,7 +177,7 @@ impl PointIndex {
     /// The `k` nearest points to `q` (fewer if the index holds fewer), sorted by distance:
     /// (index, squared distance m²). `k = 0` gives an empty list.
     pub fn knn(&self, q: Vec3, k: usize) -> Vec<(u32, f32)> {
-        let Some(k) = NonZeroUsize::new(k.min(self.len)) else {
+        let Some(k) = NonZeroUsize::new(k.min(self.points.len())) else {
             return Vec::new();
         };
         self.tree

@@ -28,6 +28,20 @@
 //! → 1.09 (office_pair), 1.32 → 1.18 (street_row, before its grating-lobe fix); the quick preset,
 //! whose thinned arrays detect little more than the cores, within ±0.03 m.
 //!
+//! **Smear across a surface** (`imaging.smear_centroid`, [`smear_to_centroid`]). The same
+//! ellipsoid lies across any surface that crosses `ŵ`: a roof seen by a vehicle's pair, or by a
+//! UAV's pair far off its track, is imaged as a slab `e` thick, and within it the speckle of the
+//! roof's many scatterers puts detections at any height, each at or above half the power of its
+//! column's strongest (a slab, not a skirt). Where the pair's own detections within `e` of `p`
+//! (at least [`super::finer_height::NORMAL_NEIGHBOURS`]) form a surface whose normal — their
+//! least spread — lies within 45° of `ŵ`, `p` moves to the power centroid along `ŵ` of the
+//! pair's detections within `±e` of it along `ŵ` and one voxel diagonal of its axis (the slab,
+//! up to `e` thick, lies within that window from any of its detections): the slab's surface,
+//! one height per column. Where the normal lies across
+//! `ŵ` the surface runs along it (a wall seen from a vehicle) and only the skirt rule applies. The
+//! fusion does this to each pair's cloud before fusing ([`crate::imaging::run::fuse_images`]),
+//! so pair clouds saved by a run are collapsed when read back.
+//!
 //! Units: metres, powers relative (`|I|²` of the pair's normalised intensities); world frame.
 
 use glam::{DMat3, DVec3, Vec3};
@@ -96,6 +110,80 @@ pub fn skirt_to_centroid(
                 sum_po += pw * off as f64;
             }
             if (ip as f64).powi(2) >= 0.5 * max_p || sum_p <= 0.0 {
+                p
+            } else {
+                p + w * (sum_po / sum_p) as f32
+            }
+        })
+        .collect()
+}
+
+/// Cosine of the largest angle between a pair's worst-resolved direction and the normal of the
+/// surface its own points form there for that surface to *cross* the direction (45°, the
+/// bisector between crossing and running along it, as [`super::finer_height`]).
+const CROSSING_COS: f32 = std::f32::consts::FRAC_1_SQRT_2;
+
+/// Fewest of the pair's own points within its extent for their surface's normal to be judged
+/// (the mesher's neighbourhood, [`super::finer_height::NORMAL_NEIGHBOURS`]).
+const SMEAR_NEIGHBOURS: usize = super::finer_height::NORMAL_NEIGHBOURS;
+
+/// The pair's detections on a surface that crosses its worst-resolved direction, each moved to
+/// its column's power centroid along that direction (module docs, *Smear across a surface*).
+/// Detections where the pair's own points run along the direction, or where fewer than
+/// [`SMEAR_NEIGHBOURS`] lie within the extent, stay. Deterministic as [`skirt_to_centroid`].
+pub fn smear_to_centroid(
+    points: &[Vec3],
+    intensity: &[f32],
+    array: &PlanarArray,
+    aperture: &VirtualAperture,
+    wavelength_m: f32,
+    bandwidth_hz: f32,
+    voxel_m: f32,
+) -> Vec<Vec3> {
+    let Ok(index) = PointIndex::new("pair points", points) else {
+        return points.to_vec();
+    };
+    let column = std::f32::consts::SQRT_2 * voxel_m;
+    points
+        .par_iter()
+        .map(|&p| {
+            let (w, extent) = worst_axis(p, array, aperture, wavelength_m, bandwidth_hz);
+            // A slab is up to `e` thick, so a window of `±e` about any of its detections holds it all.
+            let reach = extent;
+            let mut near = index.within(p, (reach * reach + column * column).sqrt());
+            if near.len() < SMEAR_NEIGHBOURS {
+                return p;
+            }
+            near.sort_unstable_by_key(|&(k, _)| k);
+            // The normal of the pair's own points within its extent: a slab one extent thick and
+            // at least two across has its least spread across the surface it smears.
+            let mut mean = DVec3::ZERO;
+            for &(k, _) in &near {
+                mean += points[k as usize].as_dvec3();
+            }
+            mean /= near.len() as f64;
+            let mut cov = DMat3::ZERO;
+            for &(k, _) in &near {
+                let d = points[k as usize].as_dvec3() - mean;
+                cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z);
+            }
+            let (_, vecs) = symmetric_eigen3(cov);
+            let normal = vecs[0].as_vec3();
+            if normal.dot(w).abs() < CROSSING_COS {
+                return p;
+            }
+            let (mut sum_p, mut sum_po) = (0.0f64, 0.0f64);
+            for &(k, _) in &near {
+                let d = points[k as usize] - p;
+                let off = d.dot(w);
+                if off.abs() > reach || (d - w * off).length() > column {
+                    continue;
+                }
+                let pw = (intensity[k as usize] as f64).powi(2);
+                sum_p += pw;
+                sum_po += pw * off as f64;
+            }
+            if sum_p <= 0.0 {
                 p
             } else {
                 p + w * (sum_po / sum_p) as f32
@@ -174,6 +262,50 @@ mod tests {
         }
         // Something did move (the skirt exists in this column).
         assert!(pts.iter().zip(&out).any(|(p, q)| p != q));
+    }
+
+    /// A roof 8 m up as the vehicle pair images it: a slab of detections at every height within
+    /// its vertical extent, of speckled power. Each column collapses to one height near the
+    /// roof. A wall the same pair images (a vertical plateau, the surface along its worst axis)
+    /// does not move.
+    #[test]
+    fn a_slab_across_the_worst_axis_collapses_and_a_wall_along_it_stays() {
+        let (a, v) = pair();
+        let voxel = 0.25;
+        let (_, e) = worst_axis(Vec3::new(0.0, 0.0, 8.0), &a, &v, LAMBDA, B);
+        let mut pts = Vec::new();
+        let mut amp = Vec::new();
+        let mut k = 0u32;
+        for i in -8..=8 {
+            for j in -8..=8 {
+                for h in -3..=3 {
+                    k = k.wrapping_mul(1_103_515_245).wrapping_add(12_345);
+                    let dz = h as f32 * 0.12 * e;
+                    pts.push(Vec3::new(i as f32 * voxel, j as f32 * voxel, 8.0 + dz));
+                    amp.push(0.3 + 0.7 * ((k >> 16) % 1000) as f32 / 1000.0);
+                }
+            }
+        }
+        let spread = |p: &[Vec3]| {
+            (p.iter().map(|q| (q.z - 8.0).powi(2)).sum::<f32>() / p.len() as f32).sqrt()
+        };
+        let out = smear_to_centroid(&pts, &amp, &a, &v, LAMBDA, B, voxel);
+        assert!(
+            spread(&out) < 0.35 * spread(&pts),
+            "slab rms {} -> {}",
+            spread(&pts),
+            spread(&out)
+        );
+        let wall: Vec<Vec3> = (-8..=8)
+            .flat_map(|j| {
+                (0..32).map(move |h| Vec3::new(0.0, j as f32 * voxel, 0.5 + h as f32 * voxel))
+            })
+            .collect();
+        let flat = vec![1.0; wall.len()];
+        assert_eq!(
+            smear_to_centroid(&wall, &flat, &a, &v, LAMBDA, B, voxel),
+            wall
+        );
     }
 
     #[test]

@@ -9,10 +9,19 @@
 //! 3 m from any building (the ones that dominate √CD) are all single-pair points on open ground
 //! or in free air, and two or more pairs that see their place detected nothing there.
 //!
-//! **The test.** Pair `j` *confirms* a fused point `p` when it kept `p` or detected a point
+//! **The test.** Pair `j` *confirms* a fused point `p` when it kept `p` or detected a point `q`
 //! within the support distance of `p` (half the coarsest resolution cell of the pairs,
-//! [`super::run::support_distance_m`]: the surface that gave `p` lies within it); `k(p)` pairs
-//! confirm it. A point that two pairs confirm, or that lies on a patch at least a resolution
+//! [`super::run::support_distance_m`]: the surface that gave `p` lies within it) that its own
+//! resolution cell cannot tell from `p` ([`PairCell`]; `imaging.resolved_confirmation`): the
+//! offset `d = q − p` has `dᵀ J_j d ≤ 1`, with `J_j` pair `j`'s information matrix at `p` over
+//! its four resolved directions, each resolution widened by the voxel (`√(δ² + v²)`). Where `p`
+//! lies on a surface of its own (normal `n̂`, below) only the offset across it counts,
+//! `(d·n̂)²·n̂ᵀJ_j n̂ ≤ 1`: a pair detects a surface's cells sparsely, so its detection of the same
+//! surface may lie a cell or two along it. A pair that resolves the offset has placed that echo
+//! elsewhere — a UAV's pair that places a roof to half a metre in height says nothing for a point
+//! 3 m above the roof, which a vehicle's pair placed there from the smear of the roof's edge;
+//! counted as a confirmation, the support distance let the roof's every detection vouch for the
+//! smear above it. `k(p)` pairs confirm it. A point that two pairs confirm, or that lies on a patch at least a resolution
 //! cell across in two directions (a surface of its own, [`super::facing`]: a false alarm is a
 //! blob of one cell), is a *surface point* for the legs below. Pair `j`
 //! *sees* `p` when `p` lies in front of its panel (`(p − rx)·n̂ > 0`, the array's half-space),
@@ -90,6 +99,8 @@ use rayon::prelude::*;
 use super::facing::faces_a_pair;
 use crate::knn::PointIndex;
 use crate::scene::Scene;
+use crate::sensors::{pair_resolution_axes, PlanarArray, VirtualAperture};
+use glam::DMat3;
 
 /// Cosine of the largest angle between the normals of two points of one flat patch (30°): the
 /// own-sight test's probes around a leg's crossing find the patch it pierces, not a corner where
@@ -111,6 +122,64 @@ pub struct PairSight<'a> {
     /// its layer over the terrain, under nothing that rises out of it): a point near one of them
     /// is one the pair cannot tell from the ground, and it neither confirms nor denies it.
     pub ground: Option<&'a PointIndex>,
+    /// The pair's resolution cell ([`PairCell`]); `None`: a detection within the support
+    /// distance confirms whatever its offset.
+    pub cell: Option<PairCell>,
+}
+
+/// What a pair resolves at a place: its panel, its aperture, the carrier's wavelength and the
+/// bandwidth ([`crate::sensors::pair_resolution_axes`]), and the lattice's voxel edge, which
+/// blurs every offset between two imaged points by up to one voxel per axis.
+#[derive(Clone, Debug)]
+pub struct PairCell {
+    /// The base station's receive panel.
+    pub array: PlanarArray,
+    /// The terminal's transmit track.
+    pub aperture: VirtualAperture,
+    /// Carrier wavelength, metres.
+    pub wavelength_m: f32,
+    /// Bandwidth, Hz.
+    pub bandwidth_hz: f32,
+    /// Imaging voxel edge, metres.
+    pub voxel_m: f32,
+}
+
+impl PairCell {
+    /// The pair's information matrix at `p`, `J = Σ a aᵀ/δ'²` over its four resolved directions
+    /// `a` with resolutions `δ' = √(δ² + v²)` (voxel `v`).
+    fn information(&self, p: Vec3) -> DMat3 {
+        let v2 = (self.voxel_m as f64).powi(2);
+        let mut j = DMat3::ZERO;
+        for (a, d) in pair_resolution_axes(
+            p,
+            &self.array,
+            &self.aperture,
+            self.wavelength_m,
+            self.bandwidth_hz,
+        ) {
+            let a = a.as_dvec3();
+            let w = 1.0 / ((d as f64).powi(2) + v2).max(1e-12);
+            j += DMat3::from_cols(a * a.x, a * a.y, a * a.z) * w;
+        }
+        j
+    }
+
+    /// Whether the pair could have placed an echo from `p` at `q`: the offset within one
+    /// resolution cell, across the surface through `p` where it has one (normal `n`: along the
+    /// surface a pair detects a surface's cells sparsely, and the support distance bounds the
+    /// offset), in every direction otherwise.
+    fn resolves_apart(&self, p: Vec3, q: Vec3, normal: Option<Vec3>) -> bool {
+        let j = self.information(p);
+        let d = (q - p).as_dvec3();
+        match normal {
+            Some(n) => {
+                let n = n.as_dvec3();
+                let across = d.dot(n);
+                across * across * n.dot(j * n) > 1.0
+            }
+            None => d.dot(j * d) > 1.0,
+        }
+    }
 }
 
 /// What the pairs say of one fused point (module docs).
@@ -193,8 +262,22 @@ fn count(
     let r2 = support_m * support_m;
     // A pair past the 64 recorded in the mask may have kept the point: it counts as keeping it.
     let kept_by = |m: u64, k: usize| k >= 64 || (m >> k) & 1 == 1;
-    let confirms = |p: Vec3, m: u64, k: usize| {
-        kept_by(m, k) || sights[k].detections.is_some_and(|d| d.nearest(p).1 <= r2)
+    // Pair `k` confirms point `i` where it kept it, or detected within the support distance of it
+    // at an offset its resolution cell cannot tell from `i` (a pair that resolves the offset
+    // places that echo elsewhere: its detection is not of `i`).
+    let confirms = |i: usize, k: usize| {
+        let p = points[i];
+        kept_by(mask[i], k)
+            || sights[k].detections.is_some_and(|d| match &sights[k].cell {
+                None => d.nearest(p).1 <= r2,
+                Some(cell) => {
+                    let normal = facing.get(i).copied().flatten();
+                    let mut near = d.within(p, support_m);
+                    near.sort_unstable_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)));
+                    near.iter()
+                        .any(|&(j, _)| !cell.resolves_apart(p, d.point(j), normal))
+                }
+            })
     };
     let grounded = |p: Vec3, k: usize| sights[k].ground.is_some_and(|d| d.nearest(p).1 <= r2);
     // A point two pairs kept or confirm is not one pair's false alarm, nor is a point on a patch
@@ -204,11 +287,11 @@ fn count(
         .par_iter()
         .zip(mask)
         .enumerate()
-        .map(|(i, (&p, &m))| {
+        .map(|(i, (_, &m))| {
             facing.get(i).is_some_and(Option::is_some)
                 || m.count_ones() > 1
                 || (0..sights.len())
-                    .filter(|&k| confirms(p, m, k))
+                    .filter(|&k| confirms(i, k))
                     .nth(1)
                     .is_some()
         })
@@ -315,11 +398,11 @@ fn count(
     (0..points.len())
         .into_par_iter()
         .map(|i| {
-            let (p, m) = (points[i], mask[i]);
+            let p = points[i];
             let mut t = Tally::default();
             let mut candidates = Vec::with_capacity(sights.len());
             for (k, s) in sights.iter().enumerate() {
-                if confirms(p, m, k) {
+                if confirms(i, k) {
                     if sees_through_own_legs(p, k) {
                         t.confirmed = t.confirmed.saturating_add(1);
                     }
@@ -483,6 +566,7 @@ mod tests {
             tx,
             detections: det,
             ground: None,
+            cell: None,
         }
     }
 
@@ -497,6 +581,81 @@ mod tests {
             sight(Vec3::new(50.0, 0.0, 20.0), Vec3::new(10.0, 0.0, 1.5), None),
             sight(Vec3::new(0.0, 50.0, 20.0), Vec3::new(0.0, 10.0, 1.5), None),
         ]
+    }
+
+    /// A UAV's pair over the point (its track 60 m up, its panel 60 m west): it places height
+    /// to under a metre there.
+    fn uav_cell() -> PairCell {
+        PairCell {
+            array: PlanarArray {
+                centre: Vec3::new(-60.0, 0.0, 20.0),
+                boresight_az_rad: 0.0,
+                rows: 8,
+                cols: 8,
+                width_m: 0.12,
+                height_m: 0.12,
+            },
+            aperture: VirtualAperture {
+                start: Vec3::new(-10.0, 0.0, 60.0),
+                end: Vec3::new(10.0, 0.0, 60.0),
+                positions: 101,
+            },
+            wavelength_m: 0.03,
+            bandwidth_hz: 400e6,
+            voxel_m: 0.25,
+        }
+    }
+
+    #[test]
+    fn a_detection_the_pair_resolves_from_the_point_does_not_confirm_it() {
+        let cell = uav_cell();
+        let j = cell.information(Vec3::new(0.0, 0.0, 10.0));
+        let vertical = 1.0 / j.z_axis.z.sqrt();
+        assert!(
+            vertical < 1.0,
+            "the UAV pair's vertical cell is {vertical} m"
+        );
+        // Pair 0 kept a point 2.5 m over a roof; pair 1 (the UAV's) detected the roof under it,
+        // within the 3 m support distance, and a roof cell 2 m along the roof from a roof point.
+        let p_air = Vec3::new(0.0, 0.0, 12.5);
+        let p_roof = Vec3::new(2.0, 0.0, 10.0);
+        let roof = [Vec3::new(0.0, 0.0, 10.0)];
+        let index = PointIndex::new("roof", &roof).expect("index");
+        let points = [p_air, p_roof];
+        let mask = [1u64, 1];
+        let up = Some(Vec3::Z);
+        let tally = |cell: Option<PairCell>, facing: &[Option<Vec3>]| {
+            let uav = PairSight {
+                rx: cell.as_ref().map_or(Vec3::ZERO, |c| c.array.centre),
+                boresight: Vec3::X,
+                tx: Vec3::new(0.0, 0.0, 60.0),
+                detections: Some(&index),
+                ground: None,
+                cell,
+            };
+            tallies(
+                &points,
+                &mask,
+                facing,
+                &[
+                    sight(Vec3::new(50.0, 0.0, 20.0), Vec3::new(10.0, 0.0, 1.5), None),
+                    uav,
+                ],
+                &open_ground(),
+                3.0,
+                false,
+            )
+        };
+        // Without the cell, anything within the support distance confirms.
+        let loose = tally(None, &[None, None]);
+        assert_eq!(loose[0].confirmed, 2);
+        // With it, the roof 2.5 m under the point is another place for the UAV's pair; the roof
+        // cell along the roof is the same surface, faced or not.
+        let resolved = tally(Some(uav_cell()), &[None, up]);
+        assert_eq!(resolved[0].confirmed, 1, "{resolved:?}");
+        assert_eq!(resolved[1].confirmed, 2, "{resolved:?}");
+        let unfaced = tally(Some(uav_cell()), &[None, None]);
+        assert_eq!(unfaced[0].confirmed, 1, "{unfaced:?}");
     }
 
     #[test]

@@ -27,7 +27,8 @@ use std::collections::HashMap;
 
 use glam::Vec3;
 
-use super::confirmation::{confirmed, PairSight};
+use super::centroid::smear_to_centroid;
+use super::confirmation::{confirmed, PairCell, PairSight};
 use super::driver::{image_pair, survey_pair, ImagingError, PairImage, PairPlan, RunOptions};
 use super::facing::own_surface_normals;
 use super::finer_height::placed_finer;
@@ -719,6 +720,13 @@ pub fn confirm(
                 tx: sc.aperture(p.aperture, 2).centre(),
                 detections: idx.as_ref(),
                 ground: ground.as_ref(),
+                cell: sc.imaging.resolved_confirmation.then(|| PairCell {
+                    array: a.clone(),
+                    aperture: sc.aperture(p.aperture, p.positions),
+                    wavelength_m: sc.wavelength_m() as f32,
+                    bandwidth_hz: (sc.radar.bandwidth_mhz * 1e6) as f32,
+                    voxel_m: sc.imaging.voxel_m,
+                }),
             }
         })
         .collect();
@@ -1042,7 +1050,8 @@ pub fn run_imaging(
     Ok(fuse_images(sc, world, plans, images))
 }
 
-/// The fused cloud of the pairs' images (one per plan, in order): [`fuse`], [`confirm`],
+/// The fused cloud of the pairs' images (one per plan, in order): each pair's slabs collapsed
+/// ([`smear_to_centroid`], `imaging.smear_centroid`), then [`fuse`], [`confirm`],
 /// [`drop_terrain_echoes`], [`drop_finer_heights`] — what [`run_imaging`] does after imaging,
 /// also for pair clouds imaged before (e.g. read back from a run's files).
 pub fn fuse_images(
@@ -1051,8 +1060,31 @@ pub fn fuse_images(
     plans: Vec<PairPlan>,
     images: Vec<PairImage>,
 ) -> RunResult {
-    let fused = fuse(sc, &plans, &images, sc.imaging.voxel_m);
-    let fused = confirm(sc, world, &plans, &images, fused);
+    // Each pair's slabs collapsed to their surfaces ([`smear_to_centroid`]); the pairs' own
+    // clouds are returned as imaged, so that a run's saved pair clouds fuse again to the same bits.
+    let collapsed: Vec<PairImage> = if sc.imaging.smear_centroid {
+        images
+            .par_iter()
+            .zip(&plans)
+            .map(|(img, p)| PairImage {
+                points: smear_to_centroid(
+                    &img.points,
+                    &img.intensity,
+                    &sc.array(p.bs),
+                    &sc.aperture(p.aperture, p.positions),
+                    sc.wavelength_m() as f32,
+                    (sc.radar.bandwidth_mhz * 1e6) as f32,
+                    sc.imaging.voxel_m,
+                ),
+                intensity: img.intensity.clone(),
+                stats: img.stats.clone(),
+            })
+            .collect()
+    } else {
+        images.clone()
+    };
+    let fused = fuse(sc, &plans, &collapsed, sc.imaging.voxel_m);
+    let fused = confirm(sc, world, &plans, &collapsed, fused);
     let fused = drop_terrain_echoes(sc, world, &plans, fused);
     let fused = drop_finer_heights(sc, &plans, fused);
     RunResult {

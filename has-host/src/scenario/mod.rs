@@ -244,6 +244,18 @@ pub struct ImagingSpec {
     /// resolves worst) to that echo's power centroid ([`crate::imaging::centroid`]).
     #[serde(default = "default_true")]
     pub skirt_centroid: bool,
+    /// Move each pair's detections on a surface that crosses the direction it resolves worst
+    /// (its own points' normal within 45° of that direction) to their column's power centroid
+    /// along it: a surface crossing a pair's long resolution axis is imaged as a slab one extent
+    /// thick ([`crate::imaging::centroid`]).
+    #[serde(default = "default_true")]
+    pub smear_centroid: bool,
+    /// A pair's detection confirms a fused point only at an offset its own resolution cell
+    /// cannot tell from the point: across the point's surface where it has one, in every
+    /// direction otherwise ([`crate::imaging::confirmation`]); off, any detection within the
+    /// support distance confirms.
+    #[serde(default = "default_true")]
+    pub resolved_confirmation: bool,
     /// How the fine pass back-projects: `"exact"` (default) per element over the
     /// `element_step`-thinned panel; `"factorised"` over every element of the panel, cut into
     /// `subarray × subarray` subarrays whose beams are formed once per snapshot
