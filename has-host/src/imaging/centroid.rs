@@ -8,7 +8,7 @@
 //! vehicle's pair, about vertical. Where the echo is strong, the detection test (against the
 //! bare site's clutter, [`super::detection`]) passes the ellipsoid's skirt too: a wall's image
 //! runs 1–2 m past its top edge into free air, and at the default preset these points carried
-//! ~70 % of the suite clouds' accuracy term (docs/results.md), 73–85 % of them above the truth.
+//! ~70 % of the suite clouds' accuracy term (docs/journal/results.md), 73–85 % of them above the truth.
 //!
 //! **The rule.** For each detection `p` of a pair, take the pair's resolution at `p` as the
 //! information matrix `J = Σ_i a_i a_iᵀ / δ_i²` over the four directions `a_i` and resolutions
@@ -23,7 +23,7 @@
 //! from a vehicle, whose plateau is not moved). Nothing is removed.
 //!
 //! The window's own points decide, so the rule needs no threshold beyond the half-power
-//! definition of a resolution cell. Measured on the suite's saved clouds (docs/results.md):
+//! definition of a resolution cell. Measured on the suite's saved clouds (docs/journal/results.md):
 //! default preset, cloud √CD 0.98 → 0.86 m (factory_site), 0.96 → 0.85 (factory_rotated), 1.18
 //! → 1.09 (office_pair), 1.32 → 1.18 (street_row, before its grating-lobe fix); the quick preset,
 //! whose thinned arrays detect little more than the cores, within ±0.03 m.

@@ -70,7 +70,7 @@
 //! ground speckle that passes its test lies inside its layer; counted as confirmations, two
 //! vehicles' ground false alarms kept a UAV pair's false alarm 1 m over open ground, 16 m from
 //! any building (office_pair's default cloud: 31 points carrying a quarter of its accuracy
-//! term; docs/results.md, "A pair's own ground echo confirms nothing"). `p` is dropped when
+//! term; docs/journal/results.md, "A pair's own ground echo confirms nothing"). `p` is dropped when
 //! `d(p) ≥ need·k(p)` (`need` = `imaging.cross_pair_denials`). Since the surface points that
 //! block legs are fixed before any point is judged, one pass decides every point.
 //!
@@ -89,7 +89,7 @@
 //! has as many as six denials, while two pairs' false alarms within the support distance of each
 //! other are not rare (tens of false clusters per pair image): on tower_hall's default cloud 16
 //! points 35 m from any building, kept by BS2-UAV and BS1-V1 at 1–2 m from each other and denied
-//! by 10–23 pairs, carried a fifth of the accuracy term (docs/results.md).
+//! by 10–23 pairs, carried a fifth of the accuracy term (docs/journal/results.md).
 //!
 //! Units: metres; points in the world frame.
 

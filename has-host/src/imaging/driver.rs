@@ -552,7 +552,7 @@ fn every_nth(
 /// the observability of the pairing, measured without knowing where anything stands. Costs the
 /// pair's frames and coarse pass; with an eighth of the frames (every second element row and
 /// column and transmit position) the count was 0–39 voxels per candidate on a held-out site and
-/// chose no better than the resolution cell (docs/results.md).
+/// chose no better than the resolution cell (docs/journal/results.md).
 ///
 /// # Errors
 /// [`ImagingError`] from has-dsp or echo synthesis.

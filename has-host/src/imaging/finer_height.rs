@@ -8,7 +8,7 @@
 //! half a metre tall, under a metre for a UAV's pair looking down. A roof seen by a vehicle's pair
 //! is therefore a slab up to `e` thick, and the fused cloud holds that slab around the roof: on
 //! tower_hall's default preset the hall's roof points 1.5–3 m above and below the roof carried a
-//! quarter of the cloud's accuracy term, and the mesh closed caps over them (docs/results.md).
+//! quarter of the cloud's accuracy term, and the mesh closed caps over them (docs/journal/results.md).
 //! Where a finer pair has placed the same surface, the coarse pair's points off it add nothing
 //! but error: they lie within the coarse pair's own height cell of the finer placement, which
 //! the finer pair resolves from them.
@@ -22,10 +22,10 @@
 //!   within `normal_radius_m` of it, the run's support distance, at least [`NORMAL_NEIGHBOURS`]
 //!   of them: the mesher's rule, [`crate::imaging::surface()`]) within 45° of vertical,
 //!   `|n_z| > cos 45°` — a roof, not a wall: a wall contains the column, and a coarse pair's
-//!   point on it is a sample of the wall, not a displaced copy of `q`. Over 16 neighbours, as
-//!   until the nineteenth session, the default preset's roof normals were mostly noise and the
-//!   test passed over smeared copies (the suite's default clouds 0.004–0.023 m √CD better with
-//!   the radius, docs/results.md).
+//!   point on it is a sample of the wall, not a displaced copy of `q`. Over a fixed 16
+//!   neighbours the default preset's roof normals were mostly noise and the test passed over
+//!   smeared copies (the suite's default clouds 0.004–0.023 m √CD better with
+//!   the radius, docs/journal/results.md).
 //!
 //! `p` is then dropped: a copy of `q`'s surface at the height its pairs could not resolve. The
 //! test needs no threshold beyond each pair's own resolution and the bisector between the

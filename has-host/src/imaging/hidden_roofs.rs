@@ -6,7 +6,7 @@
 //! are not imaged at all, and on such sites they are the bulk of what the twin misses (the
 //! district recipe's sites with two base stations and no UAV: 45–49 % of the truth in any
 //! pair's sight, the mesh's recall of the rest at 1.5 m 18–31 % without this rule, 65–80 % with
-//! it; docs/results.md). The walls are imaged, and a wall does not end in the air: a building's
+//! it; docs/journal/results.md). The walls are imaged, and a wall does not end in the air: a building's
 //! wall ends at its roof.
 //!
 //! Where the imaged walls of one building outline a footprint, the roof is taken to span it at
@@ -74,7 +74,7 @@
 //! ground between two faces looking at each other is open; a hidden roof has nothing looking
 //! into it but its own building's far walls, which look away. Without it a closed courtyard
 //! block (held-out site_41, quick) was roofed over its yard and its yard's walls ended at the
-//! roof: mesh 2.089 m against 1.044 m with it (docs/results.md).
+//! roof: mesh 2.089 m against 1.044 m with it (docs/journal/results.md).
 //!
 //! **Inside a footprint** a vertical face stands on the roof ([`standing_on`]): a building
 //! whose imaged walls outline a footprint has its outer walls on the outline and no face below
@@ -83,7 +83,7 @@
 //! the roof, and the walls [`super::wall_columns`] continues and stands under roof edges end
 //! there, not at the terrain. Continued to the terrain they ran through the buildings: on
 //! held-out district_51 (quick) a sawtooth's risers and a pitched roof's ridge carried 12 % of
-//! the mesh's area inside two towers 24 m high (docs/results.md).
+//! the mesh's area inside two towers 24 m high (docs/journal/results.md).
 //!
 //! A building is the set of the detected samples (not the walls other rules inferred) more than
 //! the support distance above the known terrain whose lattice columns (of the support distance)
@@ -816,7 +816,7 @@ impl Building<'_> {
     /// cyl_103 (quick, from pairs imaged with a range-flank rule that was not kept) a pitched
     /// block whose far gable end no pair saw had that side placed where its imaged long walls
     /// ended, 6 m inside the true face under a roof imaged out to it, and the gaps along that
-    /// line were walled (docs/results.md). Infinite (inward) where no slab spans enough or no
+    /// line were walled (docs/journal/results.md). Infinite (inward) where no slab spans enough or no
     /// imaged side gives the walls' top.
     fn roof_reach(
         &self,

@@ -21,7 +21,7 @@
 //! The walls under the edges of an added roof (one no pair saw, [`super::hidden_roofs`]) are
 //! no pieces: that roof ends on the footprint by construction, so they say nothing of where
 //! the building ends (on district_51, where a side of a glass block was placed 2.3 m inside the
-//! true face, counting them filled 370 m² of false wall along it; docs/results.md).
+//! true face, counting them filled 370 m² of false wall along it; docs/journal/results.md).
 //! Units: metres, world frame; z up.
 
 use glam::{Vec2, Vec3};

@@ -25,7 +25,7 @@
 //!   by 0.3–0.5 m and err by 48° (courtyard) — the faces-a-pair test then dropped 18 % of the
 //!   courtyard's samples against 12 %. Over half the support distance the default preset's
 //!   normals err by 14.5°, the quick preset's are the 16 nearest as before: one rule in metres,
-//!   the same accuracy at both lattices. Measured: docs/results.md, "Normals over a resolution
+//!   the same accuracy at both lattices. Measured: docs/journal/results.md, "Normals over a resolution
 //!   cell";
 //! - each sample weighs its fusion weight (the fused cloud's `weight`, [`super::fuse`]): over the
 //!   pairs that detected it, the sum of each detection's `|I|` relative to its pair's peak times
@@ -33,12 +33,12 @@
 //!   of weak detections leaves no surface of its own, and where pairs of different resolution
 //!   image the same surface at slightly different places, the surface follows the finer and the
 //!   more often confirmed ([`crate::mesh::screened_poisson_weighted`]). Measured against one
-//!   pair's `|I|` (the largest) as the weight: docs/results.md, fourteenth session;
+//!   pair's `|I|` (the largest) as the weight in docs/journal/results.md;
 //! - density trim below [`DEFAULT_TRIM_MEDIAN`] of the median vertex support density
 //!   ([`SurfaceOptions::trim_median`]): what the support clip keeps but only scattered weak
 //!   detections support — above all the caps Poisson closes over roofs from their vertically
 //!   smeared echoes. The fraction is not derived: it was chosen on the whole suite at both
-//!   presets (`docs/results.md`, "One mesh rule for every site"), where 0.25 also removed
+//!   presets (`docs/journal/results.md`, "One mesh rule for every site"), where 0.25 also removed
 //!   interpolated true surface (the office's hidden passage) and no trim kept the caps (default
 //!   factory_site and street_row meshes worse than their clouds);
 //! - clipped to the imaging region's box, and to [`super::support_distance_m`] of the samples
@@ -49,7 +49,7 @@
 //!   seen from outside, a roof seen from above), Poisson closes a thin solid around them whose
 //!   far side faces away from every sensor — never seen, and double the area (default preset,
 //!   suite and held-out sites: 1.85–2.64× the truth's area → 1.35–1.82×, √CD from 0.025 m
-//!   better to 0.009 m worse site by site; docs/results.md, "Normals over a resolution cell");
+//!   better to 0.009 m worse site by site; docs/journal/results.md, "Normals over a resolution cell");
 //! - repaired for other tools, then connected components under [`MIN_COMPONENT_FRACTION`] of the
 //!   largest one's area dropped;
 //! - a point whose local surface (its PCA normal, oriented toward its sensors) faces away from

@@ -25,7 +25,7 @@
 //! `q` inside its own layer is no evidence of a structure: it may be the same ground echo placed
 //! higher by a pair that resolves height worse (on tower_hall's default preset, a strong ground
 //! echo west of the hall reached 2.8 m in a vehicle pair's image whose layer there is 5 m, and
-//! kept the blob that a finer pair placed below it). Measured in docs/results.md.
+//! kept the blob that a finer pair placed below it). Measured in docs/journal/results.md.
 //!
 //! Units: metres; world frame, z up.
 

@@ -7,7 +7,7 @@
 //! tooth. Poisson then bridges from one tooth's imaged top to the next, and the valley — a metre
 //! and more under that bridge — is the bulk of what the factory's mesh misses (quick,
 //! factory_site: 2 206 of the 2 208 truth points more than 1.5 m from the mesh lie at z 8–9 m,
-//! in the valleys; docs/results.md). A slope does not end in the air at its lowest imaged row:
+//! in the valleys; docs/journal/results.md). A slope does not end in the air at its lowest imaged row:
 //! it runs on down its fall line until it meets what stands there.
 //!
 //! From each detected roof sample more than a support distance (`front_m`) above the terrain —
@@ -16,7 +16,7 @@
 //! [`valleys`] walks down the fall line in steps of one lattice cell, the height falling with the
 //! slope, for at most one resolution cell (`2 × front_m`). The normal is the one Poisson fits,
 //! over the support distance: a slope's direction is a property of the patch, and the per-sample
-//! tests' normals over half of it measured worse (docs/results.md). The walk
+//! tests' normals over half of it measured worse (docs/journal/results.md). The walk
 //! - ends with nothing where the slope is imaged on (a sample within a cell of the walk's height
 //!   in the column reached: a lower sample starts its own walk), where anything was imaged under
 //!   the walk (a lower roof, the ground, a wall's face continued down: what the slope runs into

@@ -18,7 +18,7 @@
 //! (Asked over the whole height window from the first cell on, as until the twentieth session,
 //! the test passed almost nothing of a rough face: on held-out site_35, 25 of 602 wall samples
 //! along the lower rim of a face whose lower storeys another building hides, each blocked by its
-//! own image's bulges a cell ahead; docs/results.md.) The front test is what tells a building's
+//! own image's bulges a cell ahead; docs/journal/results.md.) The front test is what tells a building's
 //! face from the vertical smear of a roof: a terminal on the ground resolves height poorly, so a
 //! flat roof's image is a slab metres thick, and inside it PCA normals come out horizontal as
 //! often as not — a column dropped from there runs through the building (site_16, quick: a
@@ -39,7 +39,7 @@
 //! under its edge was not — a wall facing away from every terminal and base station, seen by no
 //! pair, is the bulk of what the random sites miss (on their quick runs 83–96 % of the squared
 //! completeness error is truth more than 1.5 m from the cloud, and nearly all of it lies under a
-//! detected roof; docs/results.md) — the roof does not hang in the air either: a roof column
+//! detected roof; docs/journal/results.md) — the roof does not hang in the air either: a roof column
 //! that looks out over open ground is a building's edge, and a wall stands under it down to the
 //! terrain. Open ground is what the cloud holds nothing of up to the roof's height — or, when
 //! what the look meets lies more than a resolution cell away, another building's face looking
