@@ -49,6 +49,7 @@ use rayon::prelude::*;
 
 use crate::knn::PointIndex;
 use crate::linalg::symmetric_eigen3;
+use crate::mesh::normals::pca_normal;
 use crate::sensors::{pair_resolution_axes, PlanarArray, VirtualAperture};
 
 /// The direction a pair resolves worst at `point` (unit) and its extent there, metres: the
@@ -71,6 +72,52 @@ pub fn worst_axis(
     let extent = 1.0 / vals[0].max(1e-12).sqrt();
     let axis = if axis == DVec3::ZERO { DVec3::Z } else { axis };
     (axis.as_vec3(), extent as f32)
+}
+
+/// The power of a pair's detections in the column through `p` along `w`: those of `near` within
+/// `±reach` of `p` along `w` and within `column` of the axis, summed in `near`'s order.
+struct Column {
+    /// `Σ |I|²`.
+    power: f64,
+    /// `Σ |I|²·(q − p)·w`.
+    moment: f64,
+    /// `max |I|²`.
+    max_power: f64,
+}
+
+impl Column {
+    fn of(
+        points: &[Vec3],
+        intensity: &[f32],
+        near: &[(u32, f32)],
+        p: Vec3,
+        w: Vec3,
+        reach: f32,
+        column: f32,
+    ) -> Column {
+        let mut c = Column {
+            power: 0.0,
+            moment: 0.0,
+            max_power: 0.0,
+        };
+        for &(k, _) in near {
+            let d = points[k as usize] - p;
+            let off = d.dot(w);
+            if off.abs() > reach || (d - w * off).length() > column {
+                continue;
+            }
+            let pw = (intensity[k as usize] as f64).powi(2);
+            c.max_power = c.max_power.max(pw);
+            c.power += pw;
+            c.moment += pw * off as f64;
+        }
+        c
+    }
+
+    /// `p` moved along `w` to the column's power centroid.
+    fn centroid(&self, p: Vec3, w: Vec3) -> Vec3 {
+        p + w * (self.moment / self.power) as f32
+    }
 }
 
 /// The pair's detections with those in a PSF skirt moved to their echo's power centroid (module
@@ -97,22 +144,11 @@ pub fn skirt_to_centroid(
             let half = 0.5 * extent;
             let mut near = index.within(p, (half * half + column * column).sqrt());
             near.sort_unstable_by_key(|&(k, _)| k);
-            let (mut max_p, mut sum_p, mut sum_po) = (0.0f64, 0.0f64, 0.0f64);
-            for (k, _) in near {
-                let d = points[k as usize] - p;
-                let off = d.dot(w);
-                if off.abs() > half || (d - w * off).length() > column {
-                    continue;
-                }
-                let pw = (intensity[k as usize] as f64).powi(2);
-                max_p = max_p.max(pw);
-                sum_p += pw;
-                sum_po += pw * off as f64;
-            }
-            if (ip as f64).powi(2) >= 0.5 * max_p || sum_p <= 0.0 {
+            let c = Column::of(points, intensity, &near, p, w, half, column);
+            if (ip as f64).powi(2) >= 0.5 * c.max_power || c.power <= 0.0 {
                 p
             } else {
-                p + w * (sum_po / sum_p) as f32
+                c.centroid(p, w)
             }
         })
         .collect()
@@ -148,7 +184,8 @@ pub fn smear_to_centroid(
         .par_iter()
         .map(|&p| {
             let (w, extent) = worst_axis(p, array, aperture, wavelength_m, bandwidth_hz);
-            // A slab is up to `e` thick, so a window of `±e` about any of its detections holds it all.
+            // A slab is up to `e` thick: a window of `±e` about any of its detections holds it.
+
             let reach = extent;
             let mut near = index.within(p, (reach * reach + column * column).sqrt());
             if near.len() < SMEAR_NEIGHBOURS {
@@ -157,36 +194,15 @@ pub fn smear_to_centroid(
             near.sort_unstable_by_key(|&(k, _)| k);
             // The normal of the pair's own points within its extent: a slab one extent thick and
             // at least two across has its least spread across the surface it smears.
-            let mut mean = DVec3::ZERO;
-            for &(k, _) in &near {
-                mean += points[k as usize].as_dvec3();
-            }
-            mean /= near.len() as f64;
-            let mut cov = DMat3::ZERO;
-            for &(k, _) in &near {
-                let d = points[k as usize].as_dvec3() - mean;
-                cov += DMat3::from_cols(d * d.x, d * d.y, d * d.z);
-            }
-            let (_, vecs) = symmetric_eigen3(cov);
-            let normal = vecs[0].as_vec3();
+            let normal = pca_normal(near.iter().map(|&(k, _)| points[k as usize]));
             if normal.dot(w).abs() < CROSSING_COS {
                 return p;
             }
-            let (mut sum_p, mut sum_po) = (0.0f64, 0.0f64);
-            for &(k, _) in &near {
-                let d = points[k as usize] - p;
-                let off = d.dot(w);
-                if off.abs() > reach || (d - w * off).length() > column {
-                    continue;
-                }
-                let pw = (intensity[k as usize] as f64).powi(2);
-                sum_p += pw;
-                sum_po += pw * off as f64;
-            }
-            if sum_p <= 0.0 {
+            let c = Column::of(points, intensity, &near, p, w, reach, column);
+            if c.power <= 0.0 {
                 p
             } else {
-                p + w * (sum_po / sum_p) as f32
+                c.centroid(p, w)
             }
         })
         .collect()

@@ -156,7 +156,7 @@ pub fn pca_normals_over(
 }
 
 /// The eigenvector of the smallest eigenvalue of `points`' covariance (unit, unoriented).
-fn pca_normal(points: impl Iterator<Item = Vec3> + Clone) -> Vec3 {
+pub(crate) fn pca_normal(points: impl Iterator<Item = Vec3> + Clone) -> Vec3 {
     let (_, c) = covariance(points);
     symmetric_eigen3(c).1[0].as_vec3()
 }
