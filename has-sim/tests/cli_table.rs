@@ -150,6 +150,14 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
         "fine_coarse.toml",
         &edit(&factory, "coarse_voxel_m = 1.0", "coarse_voxel_m = 0.01"),
     );
+    let bad_bool = write(
+        "bad_bool.toml",
+        &edit(
+            &factory,
+            "coarse_voxel_m = 1.0",
+            "coarse_voxel_m = 1.0\nsmear_centroid = \"yes\"",
+        ),
+    );
     let panels = write(
         "panels.toml",
         &edit(
@@ -285,6 +293,13 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
             "coarse_voxel_m",
         )
         .absent(&[&out("fine_coarse/report.json")]),
+        row(
+            "an imaging switch given a string",
+            &["reconstruct", s(&bad_bool), "--out", s(&out("bad_bool"))],
+            1,
+            "smear_centroid = \"yes\"",
+        )
+        .absent(&[&out("bad_bool/report.json")]),
         // The quick preset's estimate, 4.7 GiB, is below MemAvailable on most machines: only
         // the address-space limit refuses it.
         row(

@@ -189,13 +189,29 @@ impl TableFields {
     }
 }
 
-/// A TOML error as one line: `line N: message` (the parser's own text spans several lines).
+/// A TOML error as one line: `line N (its text): message`, the line's text naming the field and
+/// the value (the parser's own text spans several lines).
 pub(crate) fn one_line_toml_error(text: &str, e: &toml::de::Error) -> String {
+    /// Longest quoted line, characters.
+    const SHOWN: usize = 80;
     let msg = e.message().split_whitespace().collect::<Vec<_>>().join(" ");
     match e.span() {
         Some(span) => {
-            let line = text[..span.start.min(text.len())].matches('\n').count() + 1;
-            format!("line {line}: {msg}")
+            let start = span.start.min(text.len());
+            let line = text.get(..start).map_or(0, |t| t.matches('\n').count()) + 1;
+            let shown = text
+                .lines()
+                .nth(line - 1)
+                .map(str::trim)
+                .unwrap_or_default();
+            if shown.is_empty() {
+                format!("line {line}: {msg}")
+            } else if shown.chars().count() > SHOWN {
+                let cut: String = shown.chars().take(SHOWN).collect();
+                format!("line {line} ({cut}…): {msg}")
+            } else {
+                format!("line {line} ({shown}): {msg}")
+            }
         }
         None => msg,
     }
