@@ -546,16 +546,29 @@ impl Scenario {
         Ok(s)
     }
 
-    /// A digest of the scenario's content as run (its TOML with any preset and seed applied;
-    /// how the fine pass back-projects left out, as `--fixed-point` is): 16 hex digits of
-    /// FNV-1a over the text. Mesh objects count by their path and offset, not their file's
-    /// bytes. Two runs with the same digest imaged the same site with the same draw.
+    /// A digest of what the scenario's pair images depend on (its TOML with any preset and seed
+    /// applied; how the fine pass back-projects left out, as `--fixed-point` is, and so are the
+    /// switches of the fusion that reads the pair clouds: `smear_centroid`,
+    /// `resolved_confirmation`, `fusion_min_weight`, `cross_pair_denials`, `terrain_echo_test`,
+    /// `own_sight_test`, `finer_height_test`): 16 hex digits of FNV-1a over the text. Mesh
+    /// objects count by their path and offset, not their file's bytes. Two runs with the same
+    /// digest imaged the same site with the same draw, so `--from-pairs` may fuse one run's pair
+    /// clouds under the other's fusion switches.
     ///
     /// # Errors
     /// [`ScenarioError::Toml`] if serialisation fails.
     pub fn digest(&self) -> Result<String, ScenarioError> {
         let mut s = self.clone();
         s.imaging.backprojection = Backprojection::default();
+        // The fusion's switches at one fixed setting: they do not touch the pair images.
+        let im = &mut s.imaging;
+        (im.smear_centroid, im.resolved_confirmation) = (true, true);
+        (im.fusion_min_weight, im.cross_pair_denials) = (0.0, 0);
+        (
+            im.terrain_echo_test,
+            im.own_sight_test,
+            im.finer_height_test,
+        ) = (true, true, true);
         let text = s.to_toml_string()?;
         let h = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
             (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
@@ -1352,6 +1365,24 @@ mod tests {
             let e = sc.scene.build_objects().unwrap_err().to_string();
             assert!(e.starts_with("scene.objects[0].name:"), "{e}");
         }
+    }
+
+    #[test]
+    fn the_digest_follows_the_imaging_and_not_the_fusions_switches() {
+        let sc = factory();
+        let d = sc.digest().unwrap();
+        let mut fusion = sc.clone();
+        fusion.imaging.smear_centroid = !fusion.imaging.smear_centroid;
+        fusion.imaging.resolved_confirmation = !fusion.imaging.resolved_confirmation;
+        fusion.imaging.cross_pair_denials += 1;
+        fusion.imaging.own_sight_test = !fusion.imaging.own_sight_test;
+        assert_eq!(fusion.digest().unwrap(), d);
+        let mut imaging = sc.clone();
+        imaging.imaging.sidelobe_test = !imaging.imaging.sidelobe_test;
+        assert_ne!(imaging.digest().unwrap(), d);
+        let mut seed = sc;
+        seed.imaging.seed += 1;
+        assert_ne!(seed.digest().unwrap(), d);
     }
 
     #[test]
