@@ -198,6 +198,26 @@ fn reading_a_run_s_pair_clouds_back_reproduces_its_cloud_without_imaging() {
         ],
         "seed 5",
     );
+    // A copy that changes only the fusion's switches fuses the same pair clouds.
+    let fusion = other.join("fusion.toml");
+    std::fs::write(
+        &fusion,
+        factory.replace("[imaging]\n", "[imaging]\nsmear_centroid = false\n"),
+    )
+    .unwrap();
+    let fusion_args = [
+        fusion.as_os_str(),
+        "--quick".as_ref(),
+        "--no-mesh".as_ref(),
+        "--from-pairs".as_ref(),
+        twin.as_os_str(),
+        "--out".as_ref(),
+        again.as_os_str(),
+    ];
+    let o = run(&fusion_args);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    assert!(again.join("report.json").exists());
+    std::fs::remove_dir_all(&again).unwrap();
     // A pair cloud with a point far outside the region is refused naming the file.
     let far = out.join("pairs_far");
     std::fs::create_dir_all(&far).unwrap();
