@@ -1208,11 +1208,7 @@ fn crossing_edges(poly: &[[f32; 2]]) -> Option<(usize, usize)> {
         let v = poly[i % n];
         [v[0] as f64, v[1] as f64]
     };
-    // The side of `c` from the line `a → b`: −1, 0 or 1 (`signum` would call 0 positive).
-    let orient = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
-        let cross = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
-        (cross > 0.0) as i8 - (cross < 0.0) as i8
-    };
+    let orient = side;
     let on = |a: [f64; 2], b: [f64; 2], c: [f64; 2]| {
         c[0] >= a[0].min(b[0])
             && c[0] <= a[0].max(b[0])
@@ -1272,14 +1268,19 @@ fn point_in_polygon(poly: &[[f32; 2]], x: f32, y: f32) -> bool {
     inside
 }
 
-/// Whether the segments `a–b` and `c–d` properly cross.
+/// The side of `c` from the line `a → b`: −1, 0 or 1 (`signum` would call 0 positive). Exact in
+/// f64 for f32 input.
+fn side(a: [f64; 2], b: [f64; 2], c: [f64; 2]) -> i8 {
+    let cross = (b[0] - a[0]) * (c[1] - a[1]) - (b[1] - a[1]) * (c[0] - a[0]);
+    (cross > 0.0) as i8 - (cross < 0.0) as i8
+}
+
+/// Whether the segments `a–b` and `c–d` cross: each has the other's ends on opposite sides (an
+/// end on the other's line counts on the negative side).
 fn segments_cross(a: [f32; 2], b: [f32; 2], c: [f32; 2], d: [f32; 2]) -> bool {
-    let orient = |p: [f32; 2], q: [f32; 2], r: [f32; 2]| {
-        (q[0] - p[0]) * (r[1] - p[1]) - (q[1] - p[1]) * (r[0] - p[0])
-    };
-    let (d1, d2) = (orient(c, d, a), orient(c, d, b));
-    let (d3, d4) = (orient(a, b, c), orient(a, b, d));
-    (d1 > 0.0) != (d2 > 0.0) && (d3 > 0.0) != (d4 > 0.0)
+    let w = |p: [f32; 2]| [p[0] as f64, p[1] as f64];
+    let (a, b, c, d) = (w(a), w(b), w(c), w(d));
+    (side(c, d, a) > 0) != (side(c, d, b) > 0) && (side(a, b, c) > 0) != (side(a, b, d) > 0)
 }
 
 #[cfg(test)]
