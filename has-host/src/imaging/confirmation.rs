@@ -91,12 +91,23 @@
 //! points 35 m from any building, kept by BS2-UAV and BS1-V1 at 1–2 m from each other and denied
 //! by 10–23 pairs, carried a fifth of the accuracy term (docs/journal/results.md).
 //!
+//! **Where a pair saw through, a denial whatever the facing** (`imaging.free_space_test`). A
+//! second pass adds the positive evidence of free space ([`super::free_space`]): pair `j` denies
+//! `p` when one of its legs to a point two pairs kept or confirm, and that the first pass kept,
+//! passed through `p` to more than the support distance beyond it. Unlike a seeing pair's silence
+//! this needs no facing: the facing protects a surface from pairs behind it, but a leg that ran
+//! on through `p` to a surface farther away says that nothing opaque stood at `p`, whichever way
+//! a patch through `p` would face. The smear of a bright wall's top edge over a roof has the
+//! wall's facing, so the pairs on the roof's side never denied it; a UAV's legs to the roof
+//! behind the edge pass through it.
+//!
 //! Units: metres; points in the world frame.
 
 use glam::Vec3;
 use rayon::prelude::*;
 
 use super::facing::faces_a_pair;
+use super::free_space::FreeSpace;
 use crate::knn::PointIndex;
 use crate::scene::Scene;
 use crate::sensors::{pair_resolution_axes, PlanarArray, VirtualAperture};
@@ -206,7 +217,7 @@ pub fn tallies(
     own_sight: bool,
 ) -> Vec<Tally> {
     count(
-        points, mask, facing, sights, terrain, support_m, own_sight, None,
+        points, mask, facing, sights, terrain, support_m, own_sight, None, None,
     )
 }
 
@@ -222,10 +233,35 @@ pub fn confirmed(
     support_m: f32,
     own_sight: bool,
     need: u8,
+    free_space_m: Option<f32>,
 ) -> Vec<bool> {
     if need == 0 {
         return vec![true; points.len()];
     }
+    let first = count(
+        points,
+        mask,
+        facing,
+        sights,
+        terrain,
+        support_m,
+        own_sight,
+        Some(need),
+        None,
+    );
+    let Some(half_width_m) = free_space_m else {
+        return first.into_iter().map(|t| kept(t, need)).collect();
+    };
+    // The legs of the pairs to the points two of them kept or confirm (its confirmations are
+    // counted in full before any denial) and that the confirmation kept: the free space the
+    // pairs saw through ([`super::free_space`]), a second pass's denials.
+    let ends_leg: Vec<bool> = first
+        .iter()
+        .zip(mask)
+        .map(|(&t, m)| kept(t, need) && (m.count_ones() > 1 || t.confirmed > 1))
+        .collect();
+    let sensors: Vec<[Vec3; 2]> = sights.iter().map(|s| [s.rx, s.tx]).collect();
+    let free = FreeSpace::new(points, mask, &ends_leg, &sensors, half_width_m, support_m);
     count(
         points,
         mask,
@@ -235,6 +271,7 @@ pub fn confirmed(
         support_m,
         own_sight,
         Some(need),
+        Some(&free),
     )
     .into_iter()
     .map(|t| kept(t, need))
@@ -258,6 +295,7 @@ fn count(
     support_m: f32,
     own_sight: bool,
     need: Option<u8>,
+    free: Option<&FreeSpace>,
 ) -> Vec<Tally> {
     let r2 = support_m * support_m;
     // A pair past the 64 recorded in the mask may have kept the point: it counts as keeping it.
@@ -408,6 +446,12 @@ fn count(
                     }
                     // Otherwise its detection here is not an echo from `p` (a sidelobe or
                     // smear of what it does see): no word either way.
+                } else if free
+                    .is_some_and(|f| f.pair_saw_through(p, k, facing.get(i).copied().flatten()))
+                {
+                    // Its leg to a surface beyond `p` passed through `p`: free space
+                    // ([`super::free_space`]), a denial whatever `p`'s facing.
+                    t.denied = t.denied.saturating_add(1);
                 } else if grounded(p, k) {
                     // Its detection here may be the ground's: no word either way.
                 } else if (p - s.rx).dot(s.boresight) > 0.0
@@ -768,6 +812,7 @@ mod tests {
             2.0,
             true,
             2,
+            None,
         );
         assert!(
             keep[..wall].iter().all(|&k| k),
@@ -775,7 +820,17 @@ mod tests {
         );
         assert!(keep[wall..].iter().all(|&k| !k), "the lone cluster stands");
         // Without the facing every point is denied twice.
-        let blind = confirmed(&points, &mask, &[], &sights, &open_ground(), 2.0, true, 2);
+        let blind = confirmed(
+            &points,
+            &mask,
+            &[],
+            &sights,
+            &open_ground(),
+            2.0,
+            true,
+            2,
+            None,
+        );
         assert!(blind.iter().all(|&k| !k));
         // Two more pairs in front of the wall that detected nothing deny it.
         for (rx, tx) in [
@@ -793,6 +848,7 @@ mod tests {
             2.0,
             true,
             2,
+            None,
         );
         assert!(keep.iter().all(|&k| !k), "pairs in front of a wall deny it");
     }
@@ -825,6 +881,7 @@ mod tests {
             2.0,
             true,
             2,
+            None,
         );
         assert!(!keep[0] && keep[on_wall]);
     }
@@ -958,7 +1015,17 @@ mod tests {
             }]
         );
         assert_eq!(
-            confirmed(&[p], &[0b11], &[], &sights, &open_ground(), 1.5, true, 2),
+            confirmed(
+                &[p],
+                &[0b11],
+                &[],
+                &sights,
+                &open_ground(),
+                1.5,
+                true,
+                2,
+                None
+            ),
             vec![true]
         );
         // Six pairs around it: two kept it, the other four see it and detected nothing — as
@@ -971,12 +1038,32 @@ mod tests {
             })
             .collect();
         let six: Vec<PairSight<'_>> = ring.iter().map(|&(rx, tx)| sight(rx, tx, None)).collect();
-        let keep = confirmed(&[p], &[0b11], &[], &six, &open_ground(), 1.5, true, 2);
+        let keep = confirmed(&[p], &[0b11], &[], &six, &open_ground(), 1.5, true, 2, None);
         assert_eq!(keep, vec![false]);
         // Three deniers (the sixth pair kept it too): kept.
-        let keep = confirmed(&[p], &[0b100011], &[], &six, &open_ground(), 1.5, true, 2);
+        let keep = confirmed(
+            &[p],
+            &[0b100011],
+            &[],
+            &six,
+            &open_ground(),
+            1.5,
+            true,
+            2,
+            None,
+        );
         assert_eq!(keep, vec![true]);
-        let keep = confirmed(&[p], &[0b111], &[], &six, &open_ground(), 1.5, true, 2);
+        let keep = confirmed(
+            &[p],
+            &[0b111],
+            &[],
+            &six,
+            &open_ground(),
+            1.5,
+            true,
+            2,
+            None,
+        );
         assert_eq!(keep, vec![true]);
         // The decision that stops tracing legs once the point's fate is known is the full
         // count's, for every set of keepers and every need.
@@ -984,7 +1071,17 @@ mod tests {
         let points = vec![p; masks.len()];
         let full = tallies(&points, &masks, &[], &six, &open_ground(), 1.5, true);
         for need in 1..=4 {
-            let quick = confirmed(&points, &masks, &[], &six, &open_ground(), 1.5, true, need);
+            let quick = confirmed(
+                &points,
+                &masks,
+                &[],
+                &six,
+                &open_ground(),
+                1.5,
+                true,
+                need,
+                None,
+            );
             let want: Vec<bool> = full.iter().map(|&t| kept(t, need)).collect();
             assert_eq!(quick, want, "need {need}");
         }
@@ -1014,7 +1111,7 @@ mod tests {
         // Nothing of pair 1 there: it denies, and with pair 2 the point is dropped.
         sights[1].detections = None;
         assert_eq!(
-            confirmed(&[p], &[1], &[], &sights, &open_ground(), 1.5, true, 2),
+            confirmed(&[p], &[1], &[], &sights, &open_ground(), 1.5, true, 2, None),
             vec![false]
         );
     }
@@ -1059,7 +1156,7 @@ mod tests {
             }]
         );
         assert_eq!(
-            confirmed(&[p], &[1], &[], &sights, &open_ground(), 1.5, true, 2),
+            confirmed(&[p], &[1], &[], &sights, &open_ground(), 1.5, true, 2, None),
             vec![true]
         );
         // Without pair 1's detection: pair 1 denies, pair 2 cannot see it, pair 3 denies (its
@@ -1095,14 +1192,44 @@ mod tests {
         let sights = around();
         let d = denials(&[p, q], &[1, 1], &sights, &open_ground(), 1.5);
         assert_eq!(d, vec![2, 2]);
-        let keep = confirmed(&[p, q], &[1, 1], &[], &sights, &open_ground(), 1.5, true, 2);
+        let keep = confirmed(
+            &[p, q],
+            &[1, 1],
+            &[],
+            &sights,
+            &open_ground(),
+            1.5,
+            true,
+            2,
+            None,
+        );
         assert_eq!(keep, vec![false, false]);
         // p as a surface point (three pairs kept it) stays; q is still denied by pairs 1 and 2
         // (pair 0, whose legs p would block, kept q).
-        let keep = confirmed(&[p, q], &[7, 1], &[], &sights, &open_ground(), 1.5, true, 2);
+        let keep = confirmed(
+            &[p, q],
+            &[7, 1],
+            &[],
+            &sights,
+            &open_ground(),
+            1.5,
+            true,
+            2,
+            None,
+        );
         assert_eq!(keep, vec![true, false]);
         // Nothing is dropped when no denial is needed to keep a point.
-        let keep = confirmed(&[p, q], &[1, 1], &[], &sights, &open_ground(), 1.5, true, 0);
+        let keep = confirmed(
+            &[p, q],
+            &[1, 1],
+            &[],
+            &sights,
+            &open_ground(),
+            1.5,
+            true,
+            0,
+            None,
+        );
         assert_eq!(keep, vec![true, true]);
     }
 

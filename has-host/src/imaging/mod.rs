@@ -9,6 +9,7 @@ pub mod detection;
 pub mod driver;
 pub mod facing;
 pub mod finer_height;
+pub mod free_space;
 pub mod hidden_roofs;
 pub mod outline_walls;
 pub mod run;

@@ -712,12 +712,13 @@ pub fn confirm(
     let sights: Vec<PairSight<'_>> = plans
         .iter()
         .zip(&indices)
-        .map(|(p, (idx, ground))| {
+        .zip(pair_sensors(sc, plans))
+        .map(|((p, (idx, ground)), [rx, tx])| {
             let a = sc.array(p.bs);
             PairSight {
-                rx: a.centre,
+                rx,
                 boresight: a.boresight(),
-                tx: sc.aperture(p.aperture, 2).centre(),
+                tx,
                 detections: idx.as_ref(),
                 ground: ground.as_ref(),
                 cell: sc.imaging.resolved_confirmation.then(|| PairCell {
@@ -753,6 +754,9 @@ pub fn confirm(
         support,
         sc.imaging.own_sight_test,
         need,
+        sc.imaging
+            .free_space_test
+            .then_some(0.5 * sc.imaging.voxel_m),
     );
     let unconfirmed = keep.iter().filter(|&&k| !k).count();
     FusedCloud {
@@ -760,6 +764,14 @@ pub fn confirm(
         pair_ground_echoes,
         ..fused.retain(&keep)
     }
+}
+
+/// Where each pair's legs start: its panel's centre and its aperture's centre, metres.
+pub(crate) fn pair_sensors(sc: &Scenario, plans: &[PairPlan]) -> Vec<[Vec3; 2]> {
+    plans
+        .iter()
+        .map(|p| [sc.array(p.bs).centre, sc.aperture(p.aperture, 2).centre()])
+        .collect()
 }
 
 /// Each pair's detections split into what it confirms with and its own terrain echoes, and the

@@ -93,12 +93,14 @@
 use std::time::Instant;
 
 use glam::{Vec2, Vec3};
+use rayon::prelude::*;
 
 use super::facing::test_normals;
 pub use super::facing::{faces_a_pair, TEST_NORMAL_SUPPORT_FRACTION};
+use super::free_space::FreeSpace;
 use super::hidden_roofs::{hidden_roofs, standing_on, Footprint, RoofOptions};
 use super::outline_walls::outline_walls;
-use super::run::{observing_pairs, sensors_of, support_distance_m, RunResult};
+use super::run::{observing_pairs, pair_sensors, sensors_of, support_distance_m, RunResult};
 use super::valleys::valleys;
 use super::wall_columns::{roof_edge_walls, wall_columns};
 use super::world::Terrain;
@@ -231,6 +233,9 @@ pub struct Surface {
     /// Samples of the slopes and faces meeting in valleys ([`super::valleys`]), included in
     /// `points` after the hidden roofs' and before the roof-edge walls'.
     pub valley_samples: usize,
+    /// Inferred samples dropped because a pair's leg passed through them to a surface it
+    /// detected farther on ([`super::free_space`]; the counts above are before this).
+    pub free_space_samples: usize,
     /// Each building's footprint as [`super::hidden_roofs`] read it from its walls (with
     /// [`SurfaceOptions::hidden_roofs`] off, each with 0 samples).
     pub footprints: Vec<Footprint>,
@@ -348,6 +353,7 @@ pub fn surface(
         .collect();
     let (mut wall_column_samples, mut roof_edge_samples, mut hidden_roof_samples) = (0, 0, 0);
     let (mut outline_wall_samples, mut valley_samples) = (0, 0);
+    let mut free_space_samples = 0;
     let mut footprints = Vec::new();
     if let Some(terrain) = terrain {
         let floor = |p: Vec3| terrain.below(p).map(|g| g.z.max(clip_box.0.z));
@@ -414,6 +420,33 @@ pub fn surface(
         if !opts.hidden_roofs {
             footprints.iter_mut().for_each(|f| f.samples = 0);
         }
+        // What no pair detected is not placed where a pair's leg ran through to a surface
+        // beyond (module docs): the fused points two pairs kept end the legs.
+        if sc.imaging.free_space_test && points.len() > detected {
+            let fused = &result.fused;
+            let two: Vec<bool> = fused.pairs.iter().map(|&n| n > 1).collect();
+            let free = FreeSpace::new(
+                &fused.points,
+                &fused.pair_mask,
+                &two,
+                &pair_sensors(sc, &result.plans),
+                0.5 * voxel,
+                support,
+            );
+            let keep: Vec<bool> = (0..points.len())
+                .into_par_iter()
+                .map(|i| i < detected || !free.seen_through(points[i], Some(normals[i])))
+                .collect();
+            free_space_samples = keep.iter().filter(|&&k| !k).count();
+            let mut k = keep.iter();
+            points.retain(|_| *k.next().unwrap_or(&true));
+            let mut k = keep.iter();
+            normals.retain(|_| *k.next().unwrap_or(&true));
+            let mut k = keep.iter();
+            weights.retain(|_| *k.next().unwrap_or(&true));
+            let mut k = keep.iter();
+            fit.retain(|_| *k.next().unwrap_or(&true));
+        }
     }
     let normals = fit;
     let rec = reconstruct_oriented(&points, normals, Some(&weights), &params)?;
@@ -428,6 +461,7 @@ pub fn surface(
         hidden_roof_samples,
         outline_wall_samples,
         valley_samples,
+        free_space_samples,
         footprints,
         depth,
         cell_m: rec.poisson.cell_m,

@@ -318,6 +318,9 @@ pub struct MeshReport {
     /// Samples of the roof slopes continued down to a face rising above them and of that face
     /// down to the slope ([`imaging::valleys`]; 0 with the option off or the terrain unknown).
     pub valley_samples: usize,
+    /// Inferred samples left out because a pair's leg passed through them to a surface it
+    /// detected farther on ([`imaging::free_space`]).
+    pub free_space_samples: usize,
     /// Each building's footprint as read from its imaged walls ([`imaging::hidden_roofs`]):
     /// its roof, and inside it the inferred walls stand on that roof
     /// ([`imaging::hidden_roofs::standing_on`]).
@@ -717,6 +720,7 @@ fn mesh_stage(
         hidden_roof_samples: surf.hidden_roof_samples,
         outline_wall_samples: surf.outline_wall_samples,
         valley_samples: surf.valley_samples,
+        free_space_samples: surf.free_space_samples,
         footprints: surf.footprints.clone(),
         trim_median_fraction: opts.trim_median,
         sample_weights: "weight",

@@ -123,14 +123,15 @@ impl ReconstructRunReport {
             let roofed = m.footprints.iter().filter(|f| f.samples > 0).count();
             writeln!(
                 s,
-                "Inferred in the mesher's input: {} samples continuing walls down to what they stand on, {} of roofs over {} of {} buildings whose imaged walls outline a footprint and whose roof no pair saw, {} of walls under the outer edges of roofs, {} of walls across the gaps along the footprints' sides, {} of roof slopes and faces meeting in valleys.",
+                "Inferred in the mesher's input: {} samples continuing walls down to what they stand on, {} of roofs over {} of {} buildings whose imaged walls outline a footprint and whose roof no pair saw, {} of walls under the outer edges of roofs, {} of walls across the gaps along the footprints' sides, {} of roof slopes and faces meeting in valleys; {} of these lay where a pair's leg ran through to a surface beyond and were left out.",
                 m.wall_column_samples,
                 m.hidden_roof_samples,
                 roofed,
                 m.footprints.len(),
                 m.roof_edge_samples,
                 m.outline_wall_samples,
-                m.valley_samples
+                m.valley_samples,
+                m.free_space_samples
             )?;
             if let Some(v) = &m.visibility_filter {
                 writeln!(

@@ -321,6 +321,12 @@ pub struct ImagingSpec {
     /// ([`crate::imaging::confirmation`]).
     #[serde(default = "default_true")]
     pub own_sight_test: bool,
+    /// A pair denies a fused point that one of its legs to a point two pairs kept farther on
+    /// passed through: free space ([`crate::imaging::free_space`]). The mesh's inferred samples
+    /// are not placed there either. Off by default: it removes the smear over the real sites'
+    /// roofs, and true roof points on a held-out procedural site (docs/journal/real-sites.md).
+    #[serde(default)]
+    pub free_space_test: bool,
     /// Drop a pair's detections that are no stronger than the sidelobe a stronger echo of its
     /// own image puts there, by the pair's point-spread function
     /// ([`crate::imaging::sidelobes`]).
@@ -550,7 +556,7 @@ impl Scenario {
     /// applied; how the fine pass back-projects left out, as `--fixed-point` is, and so are the
     /// switches of the fusion that reads the pair clouds: `smear_centroid`,
     /// `resolved_confirmation`, `fusion_min_weight`, `cross_pair_denials`, `terrain_echo_test`,
-    /// `own_sight_test`, `finer_height_test`): 16 hex digits of FNV-1a over the text. Mesh
+    /// `own_sight_test`, `free_space_test`, `finer_height_test`): 16 hex digits of FNV-1a over the text. Mesh
     /// objects count by their path and offset, not their file's bytes. Two runs with the same
     /// digest imaged the same site with the same draw, so `--from-pairs` may fuse one run's pair
     /// clouds under the other's fusion switches.
@@ -567,8 +573,9 @@ impl Scenario {
         (
             im.terrain_echo_test,
             im.own_sight_test,
+            im.free_space_test,
             im.finer_height_test,
-        ) = (true, true, true);
+        ) = (true, true, true, true);
         let text = s.to_toml_string()?;
         let h = text.bytes().fold(0xcbf2_9ce4_8422_2325u64, |h, b| {
             (h ^ b as u64).wrapping_mul(0x0000_0100_0000_01b3)
@@ -1377,6 +1384,7 @@ mod tests {
         fusion.imaging.resolved_confirmation = !fusion.imaging.resolved_confirmation;
         fusion.imaging.cross_pair_denials += 1;
         fusion.imaging.own_sight_test = !fusion.imaging.own_sight_test;
+        fusion.imaging.free_space_test = !fusion.imaging.free_space_test;
         assert_eq!(fusion.digest().unwrap(), d);
         let mut imaging = sc.clone();
         imaging.imaging.sidelobe_test = !imaging.imaging.sidelobe_test;
