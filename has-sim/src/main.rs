@@ -104,7 +104,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Materials { freq_ghz } => materials(freq_ghz),
         Command::Mesh(a) => mesh_cmd::run(a),
-        Command::Reconstruct(a) => reconstruct_cmd::run(a).map(|_| ()),
+        Command::Reconstruct(a) => reconstruct_cmd::run_command(a),
         Command::Scene { cmd } => scene_cmd::run(cmd),
         Command::Bench { cmd } => bench_raytrace::run(cmd),
         Command::Paths(args) => paths_cmd::run(args),
