@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 
 mod bench_dsp;
 mod bench_mesh;
+mod bench_pipeline;
 mod bench_raytrace;
 mod channel_cmd;
 mod html_report;
@@ -50,7 +51,7 @@ enum Command {
         #[command(subcommand)]
         cmd: scene_cmd::SceneCmd,
     },
-    /// Benchmarks (`bench dsp`, `bench raytrace`, `bench mesh`).
+    /// Benchmarks (`bench dsp`, `bench echo`, `bench raytrace`, `bench mesh`, `bench pipeline`).
     Bench {
         #[command(subcommand)]
         cmd: bench_raytrace::BenchCmd,

@@ -15,6 +15,7 @@
 
 mod run_report;
 pub mod shard;
+mod stages;
 
 use std::time::Instant;
 
@@ -32,6 +33,7 @@ use crate::metrics::{surface_area_metrics, CloudComparison, CloudMetrics, Observ
 
 pub use run_report::ReconstructRunReport;
 pub use shard::{Shard, ShardImages, ShardRecord};
+pub use stages::{StageTime, StageTimes};
 
 /// Why a reconstruction failed.
 #[derive(Debug, thiserror::Error)]
