@@ -31,6 +31,15 @@ pub enum BenchCmd {
         #[arg(long)]
         quick: bool,
     },
+    /// One reconstruction (default: the bundled factory) and its wall time by stage: setup,
+    /// echo synthesis, back-projection, detection and fusion, surface, scoring.
+    Pipeline {
+        /// Scenario file (TOML). Default: the bundled fixtures/factory.toml.
+        scenario: Option<std::path::PathBuf>,
+        /// The scenario's quick preset.
+        #[arg(long)]
+        quick: bool,
+    },
 }
 
 /// Options of `bench raytrace`.
@@ -85,6 +94,7 @@ pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
         BenchCmd::Dsp { quick } => crate::bench_dsp::run(quick),
         BenchCmd::Echo { quick } => crate::bench_dsp::run_echo(quick),
         BenchCmd::Mesh { quick } => crate::bench_mesh::run(quick),
+        BenchCmd::Pipeline { scenario, quick } => crate::bench_pipeline::run(scenario, quick),
     }
 }
 

@@ -9,6 +9,7 @@ use clap::{Parser, Subcommand};
 
 mod bench_dsp;
 mod bench_mesh;
+mod bench_pipeline;
 mod bench_raytrace;
 mod channel_cmd;
 mod html_report;
@@ -50,7 +51,7 @@ enum Command {
         #[command(subcommand)]
         cmd: scene_cmd::SceneCmd,
     },
-    /// Benchmarks (`bench dsp`, `bench raytrace`, `bench mesh`).
+    /// Benchmarks (`bench dsp`, `bench echo`, `bench raytrace`, `bench mesh`, `bench pipeline`).
     Bench {
         #[command(subcommand)]
         cmd: bench_raytrace::BenchCmd,
@@ -104,7 +105,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Materials { freq_ghz } => materials(freq_ghz),
         Command::Mesh(a) => mesh_cmd::run(a),
-        Command::Reconstruct(a) => reconstruct_cmd::run(a).map(|_| ()),
+        Command::Reconstruct(a) => reconstruct_cmd::run_command(a),
         Command::Scene { cmd } => scene_cmd::run(cmd),
         Command::Bench { cmd } => bench_raytrace::run(cmd),
         Command::Paths(args) => paths_cmd::run(args),

@@ -11,7 +11,8 @@ use has_host::html::{Layer, MESH_COLOUR};
 use has_host::imaging::{self, RunOptions};
 use has_host::io::{save_cloud, save_mesh};
 use has_host::reconstruction::{
-    self, Prepared, ReconstructError, ReconstructOptions, ReconstructRunReport, Reconstruction,
+    self, shard, Prepared, ReconstructError, ReconstructOptions, ReconstructRunReport,
+    Reconstruction, Shard, ShardRecord,
 };
 use has_host::scenario::Scenario;
 use indicatif::{MultiProgress, ProgressBar, ProgressStyle};
@@ -94,12 +95,20 @@ pub struct ReconstructArgs {
     /// Skip surface reconstruction.
     #[arg(long)]
     pub no_mesh: bool,
-    /// Do not image: read the pair clouds (`pair_*.ply`) an earlier `reconstruct` of the same
-    /// scenario and preset wrote into this directory, and fuse, confirm, mesh and score them as
-    /// after imaging — to try the post-processing of a long run again in a minute. Must not be
-    /// the `--out` directory.
-    #[arg(long)]
-    pub from_pairs: Option<PathBuf>,
+    /// Do not image: read the pair clouds (`pair_*.ply`) that an earlier `reconstruct` of the
+    /// same scenario and preset wrote into this directory — or the shards of one (`--shard`)
+    /// into these directories: `--from-pairs A B` or `--from-pairs A --from-pairs B`, every
+    /// planned pair in exactly one — and fuse, confirm, mesh and score them as after imaging, in
+    /// the scenario's pair order whatever the order of the directories. Give the scenario before
+    /// this flag. None may be the `--out` directory.
+    #[arg(long, num_args = 1.., value_name = "DIR")]
+    pub from_pairs: Vec<PathBuf>,
+    /// Image only shard I of N of the pairs (pair k, 0-based in the scenario's pair order,
+    /// belongs to shard k mod N + 1), write their `pair_*.ply` and `shard.json` (the scenario's
+    /// digest, the shard, its pairs), and stop: no fusion, mesh or scores. `--from-pairs` on the
+    /// N directories fuses them into the result of one run.
+    #[arg(long, value_name = "I/N", conflicts_with = "from_pairs")]
+    pub shard: Option<String>,
     /// Seed of the scatterer sampling and the noise, in place of the scenario's
     /// `imaging.seed`: another draw of the same site, to see how much a figure owes to the draw.
     #[arg(long)]
@@ -116,7 +125,8 @@ impl ReconstructArgs {
             fixed_point: false,
             raw_ofdm: false,
             backprojection: None,
-            from_pairs: None,
+            from_pairs: Vec::new(),
+            shard: None,
             mesh_depth: None,
             mesh_cell: None,
             mesh_trim_median: imaging::surface::DEFAULT_TRIM_MEDIAN,
@@ -288,7 +298,7 @@ fn write_html(
 /// `channel` and `localize` ray-trace when no mesh is given.
 pub fn build_twin(scenario: Option<PathBuf>, out: &Path, quick: bool) -> Result<PathBuf> {
     let args = ReconstructArgs::defaults(scenario, out, quick);
-    execute(&args, |p, progress| {
+    execute(&args, |p, progress, _| {
         Ok(p.reconstruct_twin(progress)?.into_reconstruction())
     })
     .context("reconstructing the digital twin")?;
@@ -313,7 +323,9 @@ fn check_args(args: &ReconstructArgs) -> Result<()> {
     {
         anyhow::bail!("--mesh-cell: {c} m is not in [0.01, 10]");
     }
-    if let Some(dir) = &args.from_pairs {
+    shard(args)?;
+    let mut seen: Vec<PathBuf> = Vec::new();
+    for dir in &args.from_pairs {
         if args.fixed_point || args.raw_ofdm || args.backprojection.is_some() {
             anyhow::bail!(
                 "--from-pairs: {} holds imaged pair clouds; --fixed-point, --raw-ofdm and \
@@ -321,8 +333,9 @@ fn check_args(args: &ReconstructArgs) -> Result<()> {
                 dir.display()
             );
         }
-        let same = match (dir.canonicalize(), args.out.canonicalize()) {
-            (Ok(a), Ok(b)) => a == b,
+        let canonical = dir.canonicalize().ok();
+        let same = match (&canonical, args.out.canonicalize()) {
+            (Some(a), Ok(b)) => *a == b,
             _ => false,
         };
         if same {
@@ -331,20 +344,46 @@ fn check_args(args: &ReconstructArgs) -> Result<()> {
                 dir.display()
             );
         }
+        if let Some(c) = canonical {
+            if seen.contains(&c) {
+                anyhow::bail!("--from-pairs: {} is given twice", dir.display());
+            }
+            seen.push(c);
+        }
     }
     Ok(())
 }
 
-/// Refuses pair clouds from a run of another scenario, preset or seed: `dir/report.json` must
-/// record the same scenario digest ([`Scenario::digest`]) and preset. A run written before
-/// digests were recorded is compared by the scenario's file name and the preset, with a note,
-/// and refused with `--seed` (its seed is not known).
+/// `--shard`, parsed.
+fn shard(args: &ReconstructArgs) -> Result<Option<Shard>> {
+    args.shard
+        .as_deref()
+        .map(|s| {
+            s.parse::<Shard>()
+                .map_err(|e| anyhow::anyhow!("--shard: {e}"))
+        })
+        .transpose()
+}
+
+/// What a `--from-pairs` directory holds: the names of its pair clouds (`None`: every planned
+/// pair, a whole run) and, for a shard, how its pairs were imaged.
+struct Held {
+    pairs: Option<Vec<String>>,
+    imaging: Option<String>,
+}
+
+/// Refuses pair clouds from a run of another scenario, preset or seed, or from a run that did
+/// not finish (its `RUNNING` marker, [`crate::run_dir`]): `dir/shard.json` of a shard
+/// ([`ShardRecord`]), else `dir/report.json` of a whole run, must record the same scenario
+/// digest ([`Scenario::digest`]) and preset. A run written before digests were recorded is
+/// compared by the scenario's file name and the preset, with a note, and refused with `--seed`
+/// (its seed is not known). Returns which pairs the directory holds.
 fn check_pairs_run(
     dir: &Path,
     args: &ReconstructArgs,
     scenario: &str,
     sc: &Scenario,
-) -> Result<()> {
+) -> Result<Held> {
     /// What `--from-pairs` reads of a run's `report.json` ([`ReconstructRunReport`]'s fields).
     #[derive(serde::Deserialize)]
     struct RunOf {
@@ -352,13 +391,62 @@ fn check_pairs_run(
         preset: String,
         scenario_digest: Option<String>,
         seed: Option<u64>,
+        imaging: Option<ImagingOf>,
+    }
+    #[derive(serde::Deserialize)]
+    struct ImagingOf {
+        pairs: Vec<PairOf>,
+    }
+    #[derive(serde::Deserialize)]
+    struct PairOf {
+        name: String,
     }
     let preset = if args.quick { "quick" } else { "default" };
-    let path = dir.join("report.json");
-    let text = std::fs::read_to_string(&path)
-        .with_context(|| format!("--from-pairs: reading {}", path.display()))?;
-    let run: RunOf = serde_json::from_str(&text)
-        .with_context(|| format!("--from-pairs: parsing {}", path.display()))?;
+    if dir.join(crate::run_dir::MARKER).exists() {
+        anyhow::bail!(
+            "--from-pairs: {} holds {}: its run was killed or failed",
+            dir.display(),
+            crate::run_dir::MARKER
+        );
+    }
+    let shard_path = dir.join(SHARD_RECORD);
+    let (path, run, held) = if shard_path.exists() {
+        let text = std::fs::read_to_string(&shard_path)
+            .with_context(|| format!("--from-pairs: reading {}", shard_path.display()))?;
+        let r: ShardRecord = serde_json::from_str(&text)
+            .with_context(|| format!("--from-pairs: parsing {}", shard_path.display()))?;
+        let run = RunOf {
+            scenario: r.scenario,
+            preset: r.preset,
+            scenario_digest: Some(r.scenario_digest),
+            seed: Some(r.seed),
+            imaging: None,
+        };
+        let held = Held {
+            pairs: Some(r.pairs),
+            imaging: Some(r.imaging),
+        };
+        (shard_path, run, held)
+    } else {
+        let path = dir.join("report.json");
+        let text = std::fs::read_to_string(&path).with_context(|| {
+            format!(
+                "--from-pairs: reading {} (a directory of `reconstruct` holds report.json, one \
+                 of `reconstruct --shard` {SHARD_RECORD})",
+                path.display()
+            )
+        })?;
+        let mut run: RunOf = serde_json::from_str(&text)
+            .with_context(|| format!("--from-pairs: parsing {}", path.display()))?;
+        let held = Held {
+            pairs: run
+                .imaging
+                .take()
+                .map(|i| i.pairs.into_iter().map(|p| p.name).collect()),
+            imaging: None,
+        };
+        (path, run, held)
+    };
     let digest = sc.digest()?;
     let (run_sc, run_preset) = (run.scenario.as_str(), run.preset.as_str());
     let same = match &run.scenario_digest {
@@ -394,11 +482,52 @@ fn check_pairs_run(
             of(Some(&digest), Some(sc.imaging.seed)),
         );
     }
-    Ok(())
+    Ok(held)
 }
 
-/// The files `reconstruct` writes into its output directory ([`crate::run_dir`]).
-pub const OUTPUTS: [&str; 13] = [
+/// For each planned pair of `plans`, the directory of `args.from_pairs` holding its cloud
+/// (`held[d]` what directory `d` holds, [`check_pairs_run`]); refuses missing and duplicate
+/// pairs and shards imaged along different paths.
+fn pair_sources(
+    args: &ReconstructArgs,
+    plans: &[imaging::PairPlan],
+    held: Vec<Held>,
+) -> Result<Vec<PathBuf>> {
+    let dirs = &args.from_pairs;
+    let mut first: Option<(usize, &str)> = None;
+    for (d, h) in held.iter().enumerate() {
+        let Some(im) = h.imaging.as_deref() else {
+            continue;
+        };
+        match first {
+            None => first = Some((d, im)),
+            Some((f, fim)) if fim != im => anyhow::bail!(
+                "--from-pairs: {} was imaged as `{fim}`, {} as `{im}`",
+                dirs[f].display(),
+                dirs[d].display()
+            ),
+            Some(_) => {}
+        }
+    }
+    let names: Vec<Vec<String>> = held
+        .into_iter()
+        .map(|h| {
+            h.pairs
+                .unwrap_or_else(|| plans.iter().map(|p| p.name.clone()).collect())
+        })
+        .collect();
+    let owner = shard::assign_pairs(plans, dirs, &names)
+        .map_err(|e| anyhow::anyhow!("--from-pairs: {e}"))?;
+    Ok(owner.into_iter().map(|d| dirs[d].clone()).collect())
+}
+
+/// The record of `reconstruct --shard` ([`ShardRecord`]).
+pub const SHARD_RECORD: &str = "shard.json";
+
+/// The files `reconstruct` writes into its output directory ([`crate::run_dir`]); `--shard`
+/// writes `pair_*.ply` and [`SHARD_RECORD`], and each mode removes the other's.
+pub const OUTPUTS: [&str; 14] = [
+    SHARD_RECORD,
     "report.json",
     "report.md",
     "report.html",
@@ -414,14 +543,24 @@ pub const OUTPUTS: [&str; 13] = [
     "mesh_side.png",
 ];
 
+/// Runs the command line's `reconstruct`: one shard ([`run_shard`]) with `--shard`, else
+/// [`run`].
+pub fn run_command(args: ReconstructArgs) -> Result<()> {
+    check_args(&args)?;
+    match shard(&args)? {
+        Some(s) => run_shard(&args, s),
+        None => run(args).map(|_| ()),
+    }
+}
+
 /// Runs the command; returns what it wrote to `report.json`.
 pub fn run(args: ReconstructArgs) -> Result<ReconstructRunReport> {
     check_args(&args)?;
+    if args.shard.is_some() {
+        anyhow::bail!("--shard: a shard writes no report.json; run it with `reconstruct --shard`");
+    }
     let opts = ReconstructOptions {
-        run: RunOptions {
-            fixed_point: args.fixed_point,
-            raw_ofdm: args.raw_ofdm,
-        },
+        run: run_options(&args),
         surface: (!args.no_mesh).then_some(imaging::SurfaceOptions {
             depth: args.mesh_depth,
             cell_m: args.mesh_cell,
@@ -436,13 +575,131 @@ pub fn run(args: ReconstructArgs) -> Result<ReconstructRunReport> {
             valleys: !args.no_valleys,
         }),
     };
-    match &args.from_pairs {
-        None => execute(&args, |p, progress| p.reconstruct(&opts, progress)),
-        Some(dir) => execute(&args, |p, _| {
-            let images = reconstruction::read_pair_images(dir, &p)?;
+    if args.from_pairs.is_empty() {
+        execute(&args, |p, progress, _| p.reconstruct(&opts, progress))
+    } else {
+        execute(&args, |p, _, sources| {
+            let dirs: Vec<&Path> = sources.iter().map(PathBuf::as_path).collect();
+            let images = reconstruction::read_pair_images_from(&dirs, &p)?;
             p.reconstruct_from_images(images, &opts)
-        }),
+        })
     }
+}
+
+/// The imaging options of `args`.
+fn run_options(args: &ReconstructArgs) -> RunOptions {
+    RunOptions {
+        fixed_point: args.fixed_point,
+        raw_ofdm: args.raw_ofdm,
+    }
+}
+
+/// Per-pair progress bars for `names`.
+fn progress_bars<'a>(names: impl Iterator<Item = &'a str>) -> Vec<ProgressBar> {
+    let multi = MultiProgress::new();
+    names
+        .map(|name| {
+            let b = multi.add(ProgressBar::new(1));
+            b.set_style(
+                ProgressStyle::with_template("{prefix:>8} [{bar:40}] {pos}/{len} frames {elapsed}")
+                    .unwrap_or_else(|_| ProgressStyle::default_bar())
+                    .progress_chars("=> "),
+            );
+            b.set_prefix(name.to_string());
+            b
+        })
+        .collect()
+}
+
+/// `reconstruct --shard I/N`: images the shard's pairs ([`Prepared::image_shard`]), writes their
+/// `pair_*.ply` and [`SHARD_RECORD`] into `args.out`, and prints what it did and what it left
+/// to the fusion.
+fn run_shard(args: &ReconstructArgs, shard: Shard) -> Result<()> {
+    let t0 = Instant::now();
+    let (sc, scenario_name) = load(args)?;
+    let scenario_digest = sc.digest()?;
+    let run_dir = crate::run_dir::RunDir::start(&args.out, &OUTPUTS)?;
+    let prepared = reconstruction::prepare(&sc)?;
+    let mine = shard.pairs(prepared.plans.len());
+    let bars = progress_bars(mine.iter().map(|&k| prepared.plans[k].name.as_str()));
+    let bar_of = |k: usize| mine.iter().position(|&m| m == k).map(|b| &bars[b]);
+    let opts = run_options(args);
+    let imaged = prepared.image_shard(shard, opts, &|k, d, t| {
+        if let Some(b) = bar_of(k) {
+            b.set_length(t);
+            b.set_position(d);
+        }
+    })?;
+    for b in &bars {
+        b.finish();
+    }
+    let mut names = Vec::with_capacity(imaged.pairs.len());
+    for (&k, img) in imaged.pairs.iter().zip(&imaged.images) {
+        let name = &imaged.planned[k].name;
+        save_cloud(
+            &args.out.join(format!("pair_{name}.ply")),
+            &img.points,
+            vec![("intensity", img.intensity.clone())],
+        )?;
+        names.push(name.clone());
+    }
+    let backprojection = match sc.imaging.backprojection {
+        imaging::Backprojection::Exact => "exact",
+        imaging::Backprojection::Factorised => "factorised",
+    };
+    let record = ShardRecord {
+        scenario: scenario_name,
+        preset: if args.quick { "quick" } else { "default" }.to_string(),
+        scenario_digest,
+        seed: sc.imaging.seed,
+        shard,
+        split: shard::SPLIT.to_string(),
+        planned_pairs: imaged.planned.len(),
+        pairs: names,
+        imaging: format!(
+            "{}, {backprojection} back-projection, {}",
+            if opts.fixed_point {
+                "fixed_point_q15"
+            } else {
+                "f32"
+            },
+            if opts.raw_ofdm {
+                "raw_ofdm"
+            } else {
+                "direct_profiles"
+            }
+        ),
+        backprojections: imaged.images.iter().map(|i| i.stats.backprojections).sum(),
+        timings_s: imaged.timings_s.clone(),
+        peak_rss_mib: crate::resources::peak_rss_mib(),
+    };
+    let text = serde_json::to_string_pretty(&record)?;
+    has_host::io::atomic_write(&args.out.join(SHARD_RECORD), |w| {
+        std::io::Write::write_all(w, text.as_bytes())
+    })?;
+    if record.pairs.is_empty() {
+        println!(
+            "shard {shard}: none of the {} pairs falls to it",
+            record.planned_pairs
+        );
+    } else {
+        println!(
+            "shard {shard}: {} of {} pairs imaged ({}); {:.3e} backprojections; wall {:.1} s; \
+             pair clouds and {SHARD_RECORD} in {}",
+            record.pairs.len(),
+            record.planned_pairs,
+            record.pairs.join(", "),
+            record.backprojections,
+            t0.elapsed().as_secs_f64(),
+            args.out.display()
+        );
+    }
+    println!(
+        "no fusion, mesh or scores in a shard: fuse the {} shard directories with \
+         `reconstruct --from-pairs DIR...`",
+        shard.count
+    );
+    run_dir.finish()
 }
 
 /// Loads the scenario of `args`, has `reconstruct` reconstruct it while per-pair progress bars
@@ -453,36 +710,37 @@ fn execute(
     reconstruct: impl FnOnce(
         Prepared<'_>,
         &(dyn Fn(usize, u64, u64) + Sync),
+        &[PathBuf],
     ) -> Result<Reconstruction, ReconstructError>,
 ) -> Result<ReconstructRunReport> {
     let t0 = Instant::now();
     let (sc, scenario_name) = load(args)?;
-    if let Some(dir) = &args.from_pairs {
-        check_pairs_run(dir, args, &scenario_name, &sc)?;
-    }
-    let scenario_digest = sc.digest()?;
-    let run_dir = crate::run_dir::RunDir::start(&args.out, &OUTPUTS)?;
-    let prepared = reconstruction::prepare(&sc)?;
-
-    let multi = MultiProgress::new();
-    let bars: Vec<ProgressBar> = prepared
-        .plans
+    let held = args
+        .from_pairs
         .iter()
-        .map(|p| {
-            let b = multi.add(ProgressBar::new(1));
-            b.set_style(
-                ProgressStyle::with_template("{prefix:>8} [{bar:40}] {pos}/{len} frames {elapsed}")
-                    .unwrap_or_else(|_| ProgressStyle::default_bar())
-                    .progress_chars("=> "),
-            );
-            b.set_prefix(p.name.clone());
-            b
-        })
-        .collect();
-    let rec = reconstruct(prepared, &|k, d, t| {
-        bars[k].set_length(t);
-        bars[k].set_position(d);
-    })?;
+        .map(|dir| check_pairs_run(dir, args, &scenario_name, &sc))
+        .collect::<Result<Vec<_>>>()?;
+    let scenario_digest = sc.digest()?;
+    let (run_dir, prepared, sources) = if held.is_empty() {
+        let run_dir = crate::run_dir::RunDir::start(&args.out, &OUTPUTS)?;
+        (run_dir, reconstruction::prepare(&sc)?, Vec::new())
+    } else {
+        // Which directory holds each pair, checked before the output directory is touched.
+        let prepared = reconstruction::prepare(&sc)?;
+        let sources = pair_sources(args, &prepared.plans, held)?;
+        let run_dir = crate::run_dir::RunDir::start(&args.out, &OUTPUTS)?;
+        (run_dir, prepared, sources)
+    };
+
+    let bars = progress_bars(prepared.plans.iter().map(|p| p.name.as_str()));
+    let rec = reconstruct(
+        prepared,
+        &|k, d, t| {
+            bars[k].set_length(t);
+            bars[k].set_position(d);
+        },
+        &sources,
+    )?;
     for b in &bars {
         b.finish();
     }

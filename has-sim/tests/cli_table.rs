@@ -617,6 +617,80 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
             0,
             "",
         ),
+        // `--shard I/N` needs whole numbers with 1 ≤ I ≤ N; refused before the output
+        // directory is made.
+        row(
+            "shard 0 of 2",
+            &[
+                "reconstruct",
+                "--quick",
+                "--shard",
+                "0/2",
+                "--out",
+                s(&out("shard_0_2")),
+            ],
+            1,
+            "--shard: `0/2`",
+        )
+        .absent(&[&out("shard_0_2")]),
+        row(
+            "shard 3 of 2",
+            &[
+                "reconstruct",
+                "--quick",
+                "--shard",
+                "3/2",
+                "--out",
+                s(&out("shard_3_2")),
+            ],
+            1,
+            "--shard: `3/2`",
+        )
+        .absent(&[&out("shard_3_2")]),
+        row(
+            "shard a of b",
+            &[
+                "reconstruct",
+                "--quick",
+                "--shard",
+                "a/b",
+                "--out",
+                s(&out("shard_a_b")),
+            ],
+            1,
+            "--shard: `a/b`",
+        )
+        .absent(&[&out("shard_a_b")]),
+        row(
+            "shard 1 of 0",
+            &[
+                "reconstruct",
+                "--quick",
+                "--shard",
+                "1/0",
+                "--out",
+                s(&out("shard_1_0")),
+            ],
+            1,
+            "--shard: `1/0`",
+        )
+        .absent(&[&out("shard_1_0")]),
+        row(
+            "a shard that also fuses",
+            &[
+                "reconstruct",
+                "--quick",
+                "--shard",
+                "1/2",
+                "--from-pairs",
+                s(&d),
+                "--out",
+                s(&out("shard_fuse")),
+            ],
+            2,
+            "--shard",
+        )
+        .absent(&[&out("shard_fuse")]),
         row(
             "scene info on bad TOML: one line",
             &["scene", "info", "--scene", s(&bad_toml)],

@@ -257,6 +257,129 @@ fn reading_a_run_s_pair_clouds_back_reproduces_its_cloud_without_imaging() {
     );
 }
 
+#[test]
+fn two_shards_merged_give_the_bits_of_one_run() {
+    let one = pipeline().join("twin");
+    let base = Path::new(env!("CARGO_TARGET_TMPDIR")).join("quick-pipeline-shards");
+    let _ = std::fs::remove_dir_all(&base);
+    let run = |args: &[&std::ffi::OsStr]| {
+        Command::new(env!("CARGO_BIN_EXE_has-sim"))
+            .arg("reconstruct")
+            .arg("--quick")
+            .args(args)
+            .output()
+            .expect("has-sim runs")
+    };
+    let (a, b) = (base.join("shard1"), base.join("shard2"));
+    // One after the other here; the README runs them side by side.
+    for (shard, dir) in [("1/2", &a), ("2/2", &b)] {
+        let o = run(&[
+            "--shard".as_ref(),
+            shard.as_ref(),
+            "--out".as_ref(),
+            dir.as_os_str(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let said = String::from_utf8_lossy(&o.stdout);
+        assert!(said.contains("no fusion"), "{said}");
+        for f in ["fused.ply", "report.json", "mesh.obj", "RUNNING"] {
+            assert!(!dir.join(f).exists(), "shard {shard} wrote {f}");
+        }
+    }
+    let record = |dir: &Path| -> serde_json::Value {
+        serde_json::from_slice(&std::fs::read(dir.join("shard.json")).expect("shard.json"))
+            .expect("valid JSON")
+    };
+    let names = |dir: &Path| -> Vec<String> {
+        record(dir)["pairs"]
+            .as_array()
+            .expect("pairs")
+            .iter()
+            .map(|n| n.as_str().expect("name").to_string())
+            .collect()
+    };
+    // The shards split the run's 24 pairs between them, each pair cloud as the run imaged it.
+    let whole: Vec<String> = common::read_report(&one)["imaging"]["pairs"]
+        .as_array()
+        .expect("pairs")
+        .iter()
+        .map(|p| p["name"].as_str().expect("name").to_string())
+        .collect();
+    let (na, nb) = (names(&a), names(&b));
+    assert_eq!((na.len(), nb.len()), (12, 12));
+    assert_eq!(
+        record(&a)["scenario_digest"],
+        common::read_report(&one)["scenario_digest"]
+    );
+    for (k, name) in whole.iter().enumerate() {
+        let dir = if k % 2 == 0 { &a } else { &b };
+        assert!(names(dir).contains(name), "{name} not in {}", dir.display());
+        let file = format!("pair_{name}.ply");
+        assert!(
+            std::fs::read(one.join(&file)).unwrap() == std::fs::read(dir.join(&file)).unwrap(),
+            "{file} differs from the run's"
+        );
+    }
+    // Merged in the other order: the run's cloud and mesh, to the bit.
+    let merged = base.join("merged");
+    let o = run(&[
+        "--from-pairs".as_ref(),
+        b.as_os_str(),
+        a.as_os_str(),
+        "--out".as_ref(),
+        merged.as_os_str(),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in ["fused.ply", "mesh.obj", "mesh.ply", "mesh_input.ply"] {
+        let (x, y) = (
+            std::fs::read(one.join(f)).unwrap(),
+            std::fs::read(merged.join(f)).unwrap(),
+        );
+        assert!(x.len() > 100, "{f} is empty");
+        assert!(x == y, "{f} of the merged shards differs from the run's");
+    }
+    // Refused before anything is written: a shard alone (naming what is missing), a pair in two
+    // directories, a shard of another draw or preset, a shard that did not finish.
+    let again = base.join("again");
+    let refused = |dirs: &[&Path], words: &[&str]| {
+        let mut args: Vec<&std::ffi::OsStr> = vec!["--no-mesh".as_ref(), "--from-pairs".as_ref()];
+        args.extend(dirs.iter().map(|d| d.as_os_str()));
+        args.extend(["--out".as_ref(), again.as_os_str()]);
+        let o = run(&args);
+        let err = String::from_utf8_lossy(&o.stderr);
+        assert_eq!(o.status.code(), Some(1), "{err}");
+        assert_eq!(err.lines().count(), 1, "{err}");
+        for w in words {
+            assert!(err.contains(w), "{err} lacks {w}");
+        }
+        assert!(!again.exists(), "{err}");
+    };
+    refused(&[&a], &["12 of 24 pairs", &nb[0], &nb[11]]);
+    refused(&[&a, &one], &["is in both", &na[0]]);
+    let edited = |name: &str, from: &str, to: &str| {
+        let dir = base.join(name);
+        std::fs::create_dir_all(&dir).unwrap();
+        for e in std::fs::read_dir(&b).unwrap() {
+            let e = e.unwrap();
+            std::fs::copy(e.path(), dir.join(e.file_name())).unwrap();
+        }
+        let text = std::fs::read_to_string(b.join("shard.json")).unwrap();
+        assert!(text.contains(from), "shard.json lacks {from}");
+        std::fs::write(dir.join("shard.json"), text.replacen(from, to, 1)).unwrap();
+        dir
+    };
+    let digest = record(&b)["scenario_digest"].as_str().unwrap().to_string();
+    let other_draw = edited("other_draw", &digest, "0123456789abcdef");
+    refused(&[&a, &other_draw], &["scenario digest", "0123456789abcdef"]);
+    let other_preset = edited("other_preset", "\"quick\"", "\"default\"");
+    refused(&[&a, &other_preset], &["preset default"]);
+    let other_path = edited("other_path", "f32,", "fixed_point_q15,");
+    refused(&[&a, &other_path], &["fixed_point_q15"]);
+    let killed = edited("killed", "\"pairs\"", "\"pairs\"");
+    std::fs::write(killed.join("RUNNING"), "has-sim reconstruct\n").unwrap();
+    refused(&[&a, &killed], &["RUNNING"]);
+}
+
 /// The written OBJ as Open3D sees it: loaded with bit-identical vertices welded (has's reader,
 /// as Open3D's `remove_duplicated_vertices`), it is edge- and vertex-manifold with no degenerate
 /// face (`is_edge_manifold`, `is_vertex_manifold`, `remove_degenerate_triangles` a no-op), and

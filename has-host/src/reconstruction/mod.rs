@@ -14,6 +14,8 @@
 //! density.
 
 mod run_report;
+pub mod shard;
+mod stages;
 
 use std::time::Instant;
 
@@ -30,6 +32,8 @@ use crate::mesh::TriMesh;
 use crate::metrics::{surface_area_metrics, CloudComparison, CloudMetrics, ObservableCompleteness};
 
 pub use run_report::ReconstructRunReport;
+pub use shard::{Shard, ShardImages, ShardRecord};
+pub use stages::{StageTime, StageTimes};
 
 /// Why a reconstruction failed.
 #[derive(Debug, thiserror::Error)]
@@ -431,6 +435,49 @@ impl Prepared<'_> {
         run.finish(result, opts)
     }
 
+    /// Images only the pairs of `shard` ([`shard`] module docs) and stops there: no fusion,
+    /// surface or scores. The pair clouds are those [`Prepared::reconstruct`] would image (each
+    /// pair's draw depends on the pair, not on the others imaged), for
+    /// [`Prepared::reconstruct_from_images`] to fuse with the other shards' later.
+    /// `progress(pair, done, total)` as [`Prepared::reconstruct`], `pair` an index into
+    /// [`Prepared::plans`].
+    ///
+    /// # Errors
+    /// [`ReconstructError::Run`]: a region over the memory budget, imaging.
+    pub fn image_shard(
+        self,
+        shard: Shard,
+        opts: RunOptions,
+        progress: &(dyn Fn(usize, u64, u64) + Sync),
+    ) -> Result<ShardImages, ReconstructError> {
+        imaging::check_memory(self.scenario)?;
+        let t1 = Instant::now();
+        let pairs = shard.pairs(self.plans.len());
+        let mut images = Vec::with_capacity(pairs.len());
+        for &k in &pairs {
+            let img =
+                imaging::image_pair(self.scenario, &self.world, &self.plans[k], opts, &|d, t| {
+                    progress(k, d, t)
+                })
+                .map_err(RunError::from)?;
+            images.push(img);
+        }
+        let timings_s = shard::ShardTimings {
+            setup: self.setup_s,
+            imaging: t1.elapsed().as_secs_f64(),
+            synthesis: images.iter().map(|im| im.stats.synth_s).sum(),
+            backprojection: images.iter().map(|im| im.stats.bp_s).sum(),
+        };
+        Ok(ShardImages {
+            world: self.world,
+            shard,
+            planned: self.plans,
+            pairs,
+            images,
+            timings_s,
+        })
+    }
+
     /// [`Prepared::reconstruct`] from pair clouds imaged before — `images[k]` the points and
     /// intensities of [`Prepared::plans`]`[k]`, e.g. read back from a run's files with
     /// [`read_pair_images`] — instead of imaging: fusion, confirmation, the terrain-echo and
@@ -480,13 +527,36 @@ pub fn read_pair_images(
     dir: &std::path::Path,
     prepared: &Prepared<'_>,
 ) -> Result<Vec<PairImage>, ReconstructError> {
+    read_pair_images_from(&vec![dir; prepared.plans.len()], prepared)
+}
+
+/// [`read_pair_images`] with each pair's cloud read from its own directory: `dirs[k]` holds
+/// `pair_<name>.ply` of [`Prepared::plans`]`[k]` (the shards' directories, matched to the pairs
+/// by [`shard::assign_pairs`]). The images come back in the scenario's pair order whatever the
+/// directories.
+///
+/// # Errors
+/// [`ReconstructError::PairImages`] when `dirs` does not name one directory per plan, or as
+/// [`read_pair_images`].
+pub fn read_pair_images_from(
+    dirs: &[&std::path::Path],
+    prepared: &Prepared<'_>,
+) -> Result<Vec<PairImage>, ReconstructError> {
+    if dirs.len() != prepared.plans.len() {
+        return Err(ReconstructError::PairImages(format!(
+            "{} directories for {} planned pairs",
+            dirs.len(),
+            prepared.plans.len()
+        )));
+    }
     let (lo, hi) = prepared.scenario.region();
     let margin = 0.1 * (hi - lo).max_element() + prepared.scenario.imaging.coarse_voxel_m;
     let (lo, hi) = (lo - Vec3::splat(margin), hi + Vec3::splat(margin));
     prepared
         .plans
         .iter()
-        .map(|p| {
+        .zip(dirs)
+        .map(|(p, dir)| {
             let path = dir.join(format!("pair_{}.ply", p.name));
             let bad =
                 |why: String| ReconstructError::PairImages(format!("{}: {why}", path.display()));
