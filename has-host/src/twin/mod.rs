@@ -165,7 +165,17 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
         .filter(|&i| set.label[i].is_some_and(|k| set.planes[k as usize].kind == PlaneKind::Roof))
         .map(|i| points[i].as_dvec3().truncate())
         .collect();
-    let fp = footprint::label(part, &roof_xy, input.voxel_m);
+    let walls: Vec<SplitLine> = lines
+        .iter()
+        .filter(|l| matches!(l.source, LineSource::Wall(_)))
+        .copied()
+        .collect();
+    let terms = footprint::LabelTerms {
+        pixel_m: input.voxel_m,
+        wall_distance_m: tol.distance_m,
+        wall_reach_m: tol.radius_m,
+    };
+    let fp = footprint::label(part, &roof_xy, &walls, &terms);
     if fp.buildings == 0 {
         let count = |k| set.planes.iter().filter(|p| p.kind == k).count();
         return Err(TwinError::Empty {

@@ -8,7 +8,9 @@
 //!   meet where their heights are equal; the ground trace of that line (a ridge, a valley, a
 //!   hip) cuts the partition, so that each side can carry its own plane. When the equal-height
 //!   line lies farther than the touching points' spread from them, the planes do not meet there
-//!   (a step between parallel roofs) and no line is made.
+//!   (a step between parallel roofs) and no line is made; nor when the planes are within the
+//!   snapping angle of each other (the line's position is then ill-conditioned) or either has
+//!   fewer than [`MEET_SUPPORT`] points.
 //! - **Support**: a cell's roof is the roof plane with the largest fusion weight among the
 //!   points it explains whose ground position lies in the cell — the data term of one roof per
 //!   footprint point.
@@ -25,11 +27,13 @@ use std::collections::HashMap;
 use glam::{DVec2, DVec3, Vec3};
 
 use super::footprint::{Footprint, LineSource, SplitLine};
-use super::planes::{PlaneKind, PlaneSet};
+use super::planes::{PlaneKind, PlaneSet, MIN_SUPPORT, SNAP_DEG};
 use crate::knn::PointIndex;
 
 /// A roof plane may rise this many voxels above the highest cloud point at a cell corner.
 pub const HEIGHT_MARGIN_VOXELS: f64 = 4.0;
+/// Fewest points of each of two roof planes for their meet line to cut the partition.
+pub const MEET_SUPPORT: usize = 3 * MIN_SUPPORT;
 /// Fewest touching point pairs for two roofs to meet.
 pub const MIN_CONTACTS: usize = 3;
 
@@ -90,6 +94,14 @@ pub fn meet_lines(points: &[Vec3], set: &PlaneSet) -> Vec<SplitLine> {
             continue;
         }
         let (p, q) = (&set.planes[a as usize], &set.planes[b as usize]);
+        // Planes within the snapping angle of each other meet along an ill-conditioned line (its
+        // position moves by the offsets' noise over the angle), and small planes are as likely
+        // noise patches: neither makes a cut.
+        if p.n.dot(q.n) > SNAP_DEG.to_radians().cos()
+            || p.support.len().min(q.support.len()) < MEET_SUPPORT
+        {
+            continue;
+        }
         // z_p = z_q ⇔ (p.n.xy/p.n.z − q.n.xy/q.n.z)·(x, y) = p.d/p.n.z − q.d/q.n.z.
         let g = DVec2::new(p.n.x / p.n.z - q.n.x / q.n.z, p.n.y / p.n.z - q.n.y / q.n.z);
         let c = p.d / p.n.z - q.d / q.n.z;
