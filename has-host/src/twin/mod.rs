@@ -361,3 +361,6 @@ impl TwinReport {
         o
     }
 }
+
+#[cfg(test)]
+mod tests;
