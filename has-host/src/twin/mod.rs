@@ -259,6 +259,8 @@ pub struct TwinReport {
     pub twin: Option<TwinMetrics>,
     /// The Poisson mesh's √CD, F(1.5 m), false surface and faces from the run's report.
     pub mesh: Option<MeshFigures>,
+    /// Each plane: kind, unit normal, offset (m), supporting points, snapped.
+    pub plane_list: Vec<(PlaneKind, [f64; 3], f64, usize, bool)>,
 }
 
 /// The figures of the run's Poisson mesh (from its report.json).
@@ -312,6 +314,12 @@ impl TwinReport {
             max_planarity_error_m: s.max_planarity_error_m(),
             twin: None,
             mesh: None,
+            plane_list: twin
+                .planes
+                .planes
+                .iter()
+                .map(|p| (p.kind, p.n.to_array(), p.d, p.support.len(), p.snapped))
+                .collect(),
         }
     }
 

@@ -25,8 +25,10 @@
 //!   direction of the site, and a wall within [`SNAP_DEG`] of one is turned onto it (its offset
 //!   refitted with the normal held). No direction is assumed: the peaks are the data's. Roofs
 //!   within [`SNAP_DEG`] of level are made level. Planes of one kind with the same normal (within
-//!   1°) and offsets within the distance tolerance whose supports come within two radii are
-//!   merged (one physical facade imaged by several pairs, or split by a gap).
+//!   1° for walls, already on shared directions; [`SNAP_DEG`] for roofs), each one's centroid
+//!   within the distance tolerance of the other and supports within two radii are merged (one
+//!   physical facade imaged by several pairs, or split by a gap); a merged roof is refitted.
+//!   Roof planes under [`MIN_ROOF_SUPPORT`] points are then dropped.
 
 use glam::{DMat3, DVec3, Vec3};
 
@@ -45,6 +47,13 @@ pub const SNAP_DEG: f64 = 8.0;
 /// Fewest points a plane must explain: below this a "plane" through voxel centres is as likely
 /// a cluster of sidelobes as a surface.
 pub const MIN_SUPPORT: usize = 12;
+
+/// A wall plane must span this many voxels both in height and along the ground (module docs).
+pub const MIN_WALL_SPAN_VOXELS: f64 = 3.0;
+/// Fewest points of a roof plane after merging: at one point per voxel (0.25 m² at 0.5 m) a
+/// roof piece of about 6 m², below which the cut and the roof stages would make a face of
+/// noise (the patches where a wall meets its roof are this size).
+pub const MIN_ROOF_SUPPORT: usize = MIN_SUPPORT;
 
 /// Lengths derived from the imaging voxel (module docs).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -250,7 +259,11 @@ fn weighted_offset(points: &[Vec3], weights: &[f32], idx: &[u32], n: DVec3) -> f
         s += wi * n.dot(points[i as usize].as_dvec3());
         w += wi;
     }
-    s / w
+    if w > 0.0 {
+        s / w
+    } else {
+        0.0
+    }
 }
 
 fn make_plane(
@@ -379,11 +392,29 @@ fn merge_coplanar(
     tol: Tolerances,
 ) -> Vec<Plane> {
     planes.sort_by_key(|p| std::cmp::Reverse(p.support.len()));
-    let cos1 = 1f64.to_radians().cos();
+    let centroid = |p: &Plane| {
+        p.support
+            .iter()
+            .map(|&i| points[i as usize].as_dvec3())
+            .sum::<DVec3>()
+            / p.support.len().max(1) as f64
+    };
     let mut out: Vec<Plane> = Vec::new();
     'next: for p in planes {
+        let cp = centroid(&p);
         for q in out.iter_mut() {
-            if q.kind != p.kind || q.n.dot(p.n) < cos1 || (q.d - p.d).abs() > tol.distance_m {
+            // Walls are already on shared directions: only equal ones merge. Roofs keep their
+            // fitted normals, noisy by up to the snapping angle.
+            let angle = if p.kind == PlaneKind::Wall {
+                1.0
+            } else {
+                SNAP_DEG
+            };
+            if q.kind != p.kind
+                || q.n.dot(p.n) < angle.to_radians().cos()
+                || q.distance(cp).abs() > tol.distance_m
+                || p.distance(centroid(q)).abs() > tol.distance_m
+            {
                 continue;
             }
             if !supports_touch(points, &q.support, &p.support, 2.0 * tol.radius_m) {
@@ -392,11 +423,36 @@ fn merge_coplanar(
             q.support.extend_from_slice(&p.support);
             q.weight += p.weight;
             q.snapped |= p.snapped;
+            if q.kind == PlaneKind::Roof && !q.snapped {
+                if let Some((_, n)) = fit(points, weights, &q.support) {
+                    q.n = if n.z < 0.0 { -n } else { n };
+                }
+            }
             q.d = weighted_offset(points, weights, &q.support, q.n);
             continue 'next;
         }
         out.push(p);
     }
+    // A facade stands from the ground to its roof, at least a storey: a near-vertical patch
+    // spanning fewer than [`MIN_WALL_SPAN_VOXELS`] voxels in height or along the ground is a roof
+    // edge, a parapet or noise, and its trace would cut buildings apart.
+    let span = MIN_WALL_SPAN_VOXELS * tol.voxel_m;
+    out.retain(|p| {
+        if p.kind != PlaneKind::Wall {
+            return true;
+        }
+        let along = DVec3::new(-p.n.y, p.n.x, 0.0);
+        let (mut z0, mut z1, mut t0, mut t1) = (f64::MAX, f64::MIN, f64::MAX, f64::MIN);
+        for &i in &p.support {
+            let q = points[i as usize].as_dvec3();
+            (z0, z1) = (z0.min(q.z), z1.max(q.z));
+            (t0, t1) = (t0.min(along.dot(q)), t1.max(along.dot(q)));
+        }
+        z1 - z0 >= span && t1 - t0 >= span
+    });
+    // Roof pieces too small to be a face of the twin (patches where a wall meets its roof,
+    // clusters of noise) are dropped; their points stay unexplained.
+    out.retain(|p| p.kind != PlaneKind::Roof || p.support.len() >= MIN_ROOF_SUPPORT);
     out
 }
 

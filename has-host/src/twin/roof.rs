@@ -14,9 +14,11 @@
 //! - **Support**: a cell's roof is the roof plane with the largest fusion weight among the
 //!   points it explains whose ground position lies in the cell — the data term of one roof per
 //!   footprint point.
-//! - **Inference**: an inside cell with no supported plane takes the plane of a neighbouring
-//!   cell of the same building (breadth first from the supported cells, in cell order), and is
-//!   marked inferred with that neighbour as its evidence. A plane that would put a corner of the
+//! - **Inference**: an inside cell with no supported plane takes a level roof at the height its
+//!   neighbour's roof has along their shared edge (breadth first from the supported cells, in
+//!   cell order), and is marked inferred with that neighbour as its evidence. Level, not the
+//!   neighbour's slope: continuing a slope over ground where nothing was seen extrapolates a
+//!   plane fitted over a few metres across the whole cell. A plane that would put a corner of the
 //!   cell below the ground (plus one voxel) or more than [`HEIGHT_MARGIN_VOXELS`] voxels above the
 //!   highest point of the cloud is not accepted there: that is extrapolation, not evidence. A
 //!   cell no accepted plane reaches gets a level roof at the median height of the building's
@@ -211,15 +213,24 @@ pub fn assign(
         (0..n).filter(|&c| roofs[c].is_some()).collect();
     while let Some(c) = queue.pop_front() {
         let from = roofs[c].expect("queued cells have roofs");
-        for &d in nb[c].iter().flatten() {
-            let d = d as usize;
+        let ring = &fp.partition.cells[c];
+        for (k, &d) in nb[c].iter().enumerate() {
+            let Some(d) = d.map(|d| d as usize) else {
+                continue;
+            };
             if !fp.inside[d] || roofs[d].is_some() {
                 continue;
             }
+            // Level, at the height the neighbour's roof has along the shared edge.
+            let mid = (fp.partition.vertices[ring[k] as usize]
+                + fp.partition.vertices[ring[(k + 1) % ring.len()] as usize])
+                * 0.5;
             let r = CellRoof {
+                n: DVec3::Z,
+                d: from.z_at(mid),
+                plane: None,
                 support: 0,
                 inferred_from: Some(Some(c as u32)),
-                ..from
             };
             if plausible(fp, d, &r, z_lo, z_hi) {
                 roofs[d] = Some(r);

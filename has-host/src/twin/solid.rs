@@ -217,9 +217,9 @@ pub fn extrude(fp: &Footprint, roofs: &[Option<CellRoof>], set: &PlaneSet, groun
                     plane,
                     points: roof.support,
                 },
-                (Some(plane), Some(Some(from))) => Provenance::Inferred {
+                (_, Some(Some(from))) => Provenance::Inferred {
                     evidence: format!(
-                        "no roof point over this cell; roof plane {plane} of neighbouring cell {from}"
+                        "no roof point over this cell; level at the height of neighbouring cell {from}'s roof along their shared edge"
                     ),
                 },
                 _ => Provenance::Inferred {
