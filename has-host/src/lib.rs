@@ -38,6 +38,7 @@ pub mod scene;
 pub mod sensors;
 pub mod shapes;
 pub mod suite;
+pub mod twin;
 
 pub use material::Material;
 pub use scene::{Hit, Object, Scene, SceneError};

@@ -24,6 +24,7 @@ mod run_dir;
 mod scene_cmd;
 mod suite_cmd;
 mod turn_cmd;
+mod twin_cmd;
 
 /// Hybrid aperture sensing simulator.
 #[derive(Parser)]
@@ -73,6 +74,9 @@ enum Command {
     /// Write a scenario turned about a vertical axis (everything placed in the plane, the
     /// imaging region as a polygon), to check that results do not depend on the orientation.
     Turn(turn_cmd::TurnArgs),
+    /// The planar twin of a finished `reconstruct` run: planes, footprint, roofs, a closed
+    /// solid; written as OBJ, PLY and CityJSON 2.0 and scored beside the run's Poisson mesh.
+    Twin(twin_cmd::TwinArgs),
 }
 
 fn main() {
@@ -114,6 +118,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Observability(a) => observability_cmd::run(a),
         Command::Suite(a) => suite_cmd::run(a),
         Command::Turn(a) => turn_cmd::run(a),
+        Command::Twin(a) => twin_cmd::run(a),
     }
 }
 

@@ -1,0 +1,374 @@
+//! The planar twin (issue 61, first step): a compact building model made of planes and
+//! evidence, built from a finished run's fused cloud, beside the Poisson mesh and its rules.
+//!
+//! The pipeline, each stage one function with typed input and output:
+//!
+//! ```text
+//! fused points + weights, voxel, ground height
+//!   ├─ planes::detect        → PlaneSet   walls / roofs / ground, regularised by the data's own
+//!   │                                     dominant directions, coplanar pieces merged
+//!   ├─ wall_traces + roof::meet_lines → SplitLine[]  wall traces on the ground, roof meet lines
+//!   ├─ footprint::partition  → Partition  convex cells of the site's box cut by those lines
+//!   ├─ footprint::label      → Footprint  cells inside by roof evidence, buildings = components
+//!   ├─ roof::assign          → CellRoof per inside cell (supported, or inferred with evidence)
+//!   ├─ solid::extrude        → Solid      closed planar polygon surface with provenance
+//!   └─ cityjson::document    → CityJSON 2.0 (one LoD2 Building per footprint)
+//! ```
+//!
+//! No rule names a shape class: footprints are whatever cells the wall lines cut and the roof
+//! points cover, roofs whatever planes the points support. Units: metres, the run's frame, z up.
+//! Scoring ([`score`]) reuses [`crate::metrics`] exactly as `reconstruct` scores its mesh.
+
+pub mod cityjson;
+pub mod footprint;
+pub mod planes;
+pub mod roof;
+pub mod solid;
+
+use glam::{DVec2, Vec3};
+
+use crate::knn::GeometryError;
+use crate::metrics::{surface_area_metrics, CloudComparison, CloudMetrics, SurfaceAreaMetrics};
+use footprint::{Footprint, LineSource, SplitLine};
+use planes::{PlaneKind, PlaneSet, Tolerances};
+use roof::CellRoof;
+use solid::{Solid, Surface};
+
+/// What the twin is built from.
+#[derive(Clone, Copy, Debug)]
+pub struct TwinInput<'a> {
+    /// Fused points, metres.
+    pub points: &'a [Vec3],
+    /// Fusion weight of each point (same length).
+    pub weights: &'a [f32],
+    /// The imaging voxel edge, metres (all tolerances derive from it).
+    pub voxel_m: f64,
+    /// Ground height under the site, metres.
+    pub ground_z: f64,
+}
+
+/// Errors of the twin's construction.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum TwinError {
+    /// An input field out of range.
+    #[error("{field} = {value} is invalid: must be {expected}")]
+    BadInput {
+        /// Which input.
+        field: &'static str,
+        /// Its value.
+        value: String,
+        /// What it must be.
+        expected: &'static str,
+    },
+    /// A geometric stage failed (too few or non-finite points).
+    #[error(transparent)]
+    Geometry(#[from] GeometryError),
+    /// The evidence gave no building.
+    #[error("no building: {planes} planes ({walls} walls, {roofs} roofs) and no cell under roof evidence")]
+    Empty {
+        /// Planes found.
+        planes: usize,
+        /// Of which walls.
+        walls: usize,
+        /// Of which roofs.
+        roofs: usize,
+    },
+}
+
+/// Every stage's result.
+#[derive(Clone, Debug)]
+pub struct Twin {
+    /// Stage 1.
+    pub planes: PlaneSet,
+    /// Stage 2 input: the cutting lines.
+    pub lines: Vec<SplitLine>,
+    /// Stage 2.
+    pub footprint: Footprint,
+    /// Stage 3: one roof per cell (`None` outside).
+    pub roofs: Vec<Option<CellRoof>>,
+    /// Stage 4.
+    pub solid: Solid,
+}
+
+/// Wall planes' traces on the ground, each with its seen extent.
+pub fn wall_traces(points: &[Vec3], set: &PlaneSet) -> Vec<SplitLine> {
+    set.planes
+        .iter()
+        .enumerate()
+        .filter(|(_, p)| p.kind == PlaneKind::Wall)
+        .map(|(k, p)| {
+            let m = p.n.truncate().normalize();
+            let origin = m * p.d;
+            let dir = m.perp();
+            let (t0, t1) = p.support.iter().fold((f64::MAX, f64::MIN), |(lo, hi), &i| {
+                let t = dir.dot(points[i as usize].as_dvec3().truncate() - origin);
+                (lo.min(t), hi.max(t))
+            });
+            SplitLine {
+                origin,
+                dir,
+                t0,
+                t1,
+                source: LineSource::Wall(k as u32),
+            }
+        })
+        .collect()
+}
+
+/// Runs the pipeline (module docs).
+///
+/// # Errors
+/// [`TwinError::BadInput`] for a weight list of another length, a non-positive voxel or a
+/// non-finite ground; [`TwinError::Geometry`] for too few or non-finite points;
+/// [`TwinError::Empty`] when no cell is under roof evidence.
+pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
+    if input.weights.len() != input.points.len() {
+        return Err(TwinError::BadInput {
+            field: "weights",
+            value: format!(
+                "{} values for {} points",
+                input.weights.len(),
+                input.points.len()
+            ),
+            expected: "one per point",
+        });
+    }
+    if !(input.voxel_m.is_finite() && input.voxel_m > 0.0) {
+        return Err(TwinError::BadInput {
+            field: "voxel_m",
+            value: input.voxel_m.to_string(),
+            expected: "finite and > 0",
+        });
+    }
+    if !input.ground_z.is_finite() {
+        return Err(TwinError::BadInput {
+            field: "ground_z",
+            value: input.ground_z.to_string(),
+            expected: "finite",
+        });
+    }
+    let tol = Tolerances::from_voxel(input.voxel_m);
+    let (points, weights) = (input.points, input.weights);
+    let set = planes::detect(points, weights, input.ground_z, tol)?;
+    let mut lines = wall_traces(points, &set);
+    lines.extend(roof::meet_lines(points, &set));
+    let extend_m = footprint::EXTEND_VOXELS * input.voxel_m;
+    let lo = points.iter().fold(DVec2::splat(f64::MAX), |m, p| {
+        m.min(p.as_dvec3().truncate())
+    }) - DVec2::splat(extend_m);
+    let hi = points.iter().fold(DVec2::splat(f64::MIN), |m, p| {
+        m.max(p.as_dvec3().truncate())
+    }) + DVec2::splat(extend_m);
+    let part = footprint::partition(lo, hi, &lines, extend_m);
+    let roof_xy: Vec<DVec2> = (0..points.len())
+        .filter(|&i| set.label[i].is_some_and(|k| set.planes[k as usize].kind == PlaneKind::Roof))
+        .map(|i| points[i].as_dvec3().truncate())
+        .collect();
+    let walls: Vec<SplitLine> = lines
+        .iter()
+        .filter(|l| matches!(l.source, LineSource::Wall(_)))
+        .copied()
+        .collect();
+    let terms = footprint::LabelTerms {
+        pixel_m: input.voxel_m,
+        wall_distance_m: tol.distance_m,
+        wall_reach_m: tol.radius_m,
+    };
+    let fp = footprint::label(part, &roof_xy, &walls, &terms);
+    if fp.buildings == 0 {
+        let count = |k| set.planes.iter().filter(|p| p.kind == k).count();
+        return Err(TwinError::Empty {
+            planes: set.planes.len(),
+            walls: count(PlaneKind::Wall),
+            roofs: count(PlaneKind::Roof),
+        });
+    }
+    let roofs = roof::assign(&fp, points, weights, &set, input.ground_z);
+    let solid = solid::extrude(&fp, &roofs, &set, input.ground_z);
+    Ok(Twin {
+        planes: set,
+        lines,
+        footprint: fp,
+        roofs,
+        solid,
+    })
+}
+
+/// The twin scored as `reconstruct` scores its mesh.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct TwinMetrics {
+    /// √CD, F-scores, precision, recall of the twin's area samples against the truth.
+    pub cloud: CloudMetrics,
+    /// False surface and area against the truth's.
+    pub area: SurfaceAreaMetrics,
+}
+
+/// Scores the twin's walls and roofs against the truth samples `truth` and triangles
+/// `truth_triangles`: uniform area samples at `density_per_m2` (seed `seed`), then
+/// [`CloudMetrics`] and [`surface_area_metrics`] at 1.5 m, as `reconstruct` scores the mesh.
+/// Ground faces are left out: the truth holds no face that faces down.
+///
+/// # Errors
+/// As [`crate::metrics::sample_mesh`], [`CloudComparison::new`] and [`surface_area_metrics`].
+pub fn score(
+    solid: &Solid,
+    truth: &[Vec3],
+    truth_triangles: &[[Vec3; 3]],
+    density_per_m2: f64,
+    seed: u64,
+) -> Result<TwinMetrics, GeometryError> {
+    let (mesh, _) = solid.triangulate(|f| f.surface != Surface::GroundSurface);
+    let samples = mesh.sample(density_per_m2, seed)?;
+    let cmp = CloudComparison::new(&samples, truth)?;
+    let area = surface_area_metrics(&samples, mesh.area_m2(), truth, truth_triangles, 1.5)?;
+    Ok(TwinMetrics {
+        cloud: CloudMetrics::new(&cmp, samples.len(), truth.len())?,
+        area,
+    })
+}
+
+/// The twin's figures beside the Poisson mesh's of the same run.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct TwinReport {
+    /// The run directory read.
+    pub run: String,
+    /// Imaging voxel, metres.
+    pub voxel_m: f64,
+    /// Ground height used, metres.
+    pub ground_z_m: f64,
+    /// Planes found: walls, roofs, ground.
+    pub planes: [usize; 3],
+    /// Dominant wall directions, degrees (folded into [0, 90)).
+    pub dominant_azimuths_deg: Vec<f64>,
+    /// Footprint cells and inside cells.
+    pub cells: [usize; 2],
+    /// Buildings (connected footprints).
+    pub buildings: usize,
+    /// Faces: total, walls, roofs, ground.
+    pub faces: [usize; 4],
+    /// Faces without plane support (inferred).
+    pub inferred_faces: usize,
+    /// Edge-use topology of the triangulated solid.
+    pub topology: crate::mesh::Topology,
+    /// Enclosed volume, m³.
+    pub volume_m3: f64,
+    /// Largest vertex distance from its face's plane, metres.
+    pub max_planarity_error_m: f64,
+    /// The twin's metrics (walls and roofs).
+    pub twin: Option<TwinMetrics>,
+    /// The Poisson mesh's √CD, F(1.5 m), false surface and faces from the run's report.
+    pub mesh: Option<MeshFigures>,
+    /// Each plane: kind, unit normal, offset (m), supporting points, snapped.
+    pub plane_list: Vec<(PlaneKind, [f64; 3], f64, usize, bool)>,
+}
+
+/// The figures of the run's Poisson mesh (from its report.json).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct MeshFigures {
+    /// √CD, metres.
+    pub sqrt_chamfer_m: f64,
+    /// F(1.5 m), percent.
+    pub fscore_1_5m: f64,
+    /// False surface at 1.5 m, percent.
+    pub false_surface_pct_1_5m: f64,
+    /// Triangles.
+    pub faces: usize,
+}
+
+impl TwinReport {
+    /// The report's figures of `twin`.
+    pub fn new(run: String, input: &TwinInput<'_>, twin: &Twin) -> TwinReport {
+        let s = &twin.solid;
+        let count = |k| twin.planes.planes.iter().filter(|p| p.kind == k).count();
+        let (tri, _) = s.triangulate(|_| true);
+        TwinReport {
+            run,
+            voxel_m: input.voxel_m,
+            ground_z_m: input.ground_z,
+            planes: [
+                count(PlaneKind::Wall),
+                count(PlaneKind::Roof),
+                count(PlaneKind::Ground),
+            ],
+            dominant_azimuths_deg: twin
+                .planes
+                .dominant_azimuths
+                .iter()
+                .map(|a| a.to_degrees())
+                .collect(),
+            cells: [
+                twin.footprint.inside.len(),
+                twin.footprint.inside.iter().filter(|&&i| i).count(),
+            ],
+            buildings: s.buildings,
+            faces: [
+                s.faces.len(),
+                s.count(Surface::WallSurface),
+                s.count(Surface::RoofSurface),
+                s.count(Surface::GroundSurface),
+            ],
+            inferred_faces: s.inferred(),
+            topology: tri.topology(),
+            volume_m3: s.signed_volume_m3(),
+            max_planarity_error_m: s.max_planarity_error_m(),
+            twin: None,
+            mesh: None,
+            plane_list: twin
+                .planes
+                .planes
+                .iter()
+                .map(|p| (p.kind, p.n.to_array(), p.d, p.support.len(), p.snapped))
+                .collect(),
+        }
+    }
+
+    /// Markdown.
+    pub fn render(&self) -> String {
+        let mut o = format!("# Planar twin of {}\n\n", self.run);
+        o += &format!(
+            "- planes: {} walls, {} roofs, {} ground; dominant wall directions {:?}°\n",
+            self.planes[0],
+            self.planes[1],
+            self.planes[2],
+            self.dominant_azimuths_deg
+                .iter()
+                .map(|a| (a * 10.0).round() / 10.0)
+                .collect::<Vec<_>>()
+        );
+        o += &format!(
+            "- footprint: {} of {} cells inside, {} building(s)\n",
+            self.cells[1], self.cells[0], self.buildings
+        );
+        o += &format!(
+            "- faces: {} ({} wall, {} roof, {} ground), {} inferred\n",
+            self.faces[0], self.faces[1], self.faces[2], self.faces[3], self.inferred_faces
+        );
+        let t = &self.topology;
+        o += &format!(
+            "- solid: watertight {}, manifold {} ({} boundary, {} non-manifold, {} misoriented edges), volume {:.0} m³, planarity {:.1e} m\n\n",
+            t.watertight, t.manifold, t.boundary_edges, t.nonmanifold_edges, t.misoriented_edges,
+            self.volume_m3, self.max_planarity_error_m
+        );
+        o += "| | √CD (m) | F(1.5 m) | false surface | faces |\n|---|---|---|---|---|\n";
+        if let Some(m) = &self.twin {
+            o += &format!(
+                "| planar twin | {:.3} | {:.1} | {:.1} % | {} |\n",
+                m.cloud.sqrt_chamfer_m,
+                m.cloud.fscores.fscore_1_5m,
+                m.area.false_surface_pct,
+                self.faces[0]
+            );
+        }
+        if let Some(m) = &self.mesh {
+            o += &format!(
+                "| Poisson mesh | {:.3} | {:.1} | {:.1} % | {} |\n",
+                m.sqrt_chamfer_m, m.fscore_1_5m, m.false_surface_pct_1_5m, m.faces
+            );
+        }
+        o
+    }
+}
+
+#[cfg(test)]
+mod tests;

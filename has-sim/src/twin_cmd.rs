@@ -1,0 +1,244 @@
+//! `has-sim twin RUN_DIR --out DIR`: the planar twin (`has_host::twin`) of a finished
+//! `reconstruct` run, written as OBJ, PLY and CityJSON 2.0, scored against the run's truth as
+//! the run scored its Poisson mesh.
+//!
+//! Reads `RUN_DIR/report.json` (the voxel, the scenario file, the seed and sampling density of
+//! the mesh's scoring, the mesh's figures), `RUN_DIR/fused.ply` (points and their `weight`) and,
+//! for the metrics only, `RUN_DIR/ground_truth.ply` and the scenario's truth objects. The
+//! scenario also gives the ground height (its ground objects under the cloud's centre).
+
+use std::io::Write;
+use std::path::{Path, PathBuf};
+
+use anyhow::{anyhow, bail, Context, Result};
+use glam::Vec3;
+use has_host::io::ply::{self, PlyData, PlyFormat};
+use has_host::scenario::Scenario;
+use has_host::twin::{self, cityjson, solid::Surface, MeshFigures, TwinInput, TwinReport};
+use serde_json::Value;
+
+use crate::run_dir::RunDir;
+
+/// Options of the `twin` subcommand.
+#[derive(clap::Args, Debug)]
+pub struct TwinArgs {
+    /// A finished `reconstruct` run directory (report.json, fused.ply, ground_truth.ply).
+    pub run_dir: PathBuf,
+    /// Output directory (twin.obj, twin.ply, twin.city.json, twin_report.json, twin_report.md).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// The run's scenario file, when the path report.json records does not resolve from here.
+    #[arg(long)]
+    pub scenario: Option<PathBuf>,
+}
+
+const OUTPUTS: [&str; 5] = [
+    "twin.obj",
+    "twin.ply",
+    "twin.city.json",
+    "twin_report.json",
+    "twin_report.md",
+];
+
+fn field<'a>(report: &'a Value, path: &Path, key: &str) -> Result<&'a Value> {
+    key.split('.')
+        .try_fold(report, |v, k| v.get(k))
+        .ok_or_else(|| anyhow!("{}: field {key} is missing", path.display()))
+}
+
+fn number(report: &Value, path: &Path, key: &str) -> Result<f64> {
+    let v = field(report, path, key)?;
+    v.as_f64().filter(|x| x.is_finite()).ok_or_else(|| {
+        anyhow!(
+            "{}: field {key} = {v} is not a finite number",
+            path.display()
+        )
+    })
+}
+
+/// The twin of one run (module docs).
+///
+/// # Errors
+/// One line naming the file and field or value at fault.
+pub fn run(a: TwinArgs) -> Result<()> {
+    let report_path = a.run_dir.join("report.json");
+    let text = std::fs::read_to_string(&report_path)
+        .with_context(|| format!("reading {}", report_path.display()))?;
+    let report: Value = serde_json::from_str(&text)
+        .with_context(|| format!("{}: not JSON", report_path.display()))?;
+    let voxel_m = number(&report, &report_path, "imaging.voxel_m")?;
+    if voxel_m <= 0.0 {
+        bail!(
+            "{}: field imaging.voxel_m = {voxel_m} must be > 0",
+            report_path.display()
+        );
+    }
+    // The imaging seed (older reports do not record it: the scenario's, which they used).
+    let seed = match report.get("seed") {
+        Some(v) => Some(v.as_u64().ok_or_else(|| {
+            anyhow!(
+                "{}: field seed = {v} is not an unsigned integer",
+                report_path.display()
+            )
+        })?),
+        None => None,
+    };
+    let density = number(&report, &report_path, "mesh.sample_density_per_m2")
+        .or_else(|_| number(&report, &report_path, "imaging.ground_truth.density_per_m2"))?;
+    let mesh = report
+        .get("mesh")
+        .and_then(|m| serde_json::from_value::<MeshFigures>(m.clone()).ok());
+    let scenario_path = match &a.scenario {
+        Some(p) => p.clone(),
+        None => PathBuf::from(
+            field(&report, &report_path, "scenario")?
+                .as_str()
+                .ok_or_else(|| {
+                    anyhow!("{}: field scenario is not a path", report_path.display())
+                })?,
+        ),
+    };
+    let mut sc = Scenario::load(&scenario_path).with_context(|| {
+        format!(
+            "{}: field scenario = {} (give --scenario FILE if it moved)",
+            report_path.display(),
+            scenario_path.display()
+        )
+    })?;
+    if report.get("preset").and_then(Value::as_str) == Some("quick") {
+        sc.apply_quick();
+    }
+    let seed = seed.unwrap_or(sc.imaging.seed);
+
+    let fused_path = a.run_dir.join("fused.ply");
+    let fused = ply::read_ply(&fused_path)?;
+    let weights = fused
+        .property("weight")
+        .ok_or_else(|| anyhow!("{}: no per-point property weight", fused_path.display()))?
+        .to_vec();
+    let truth_path = a.run_dir.join("ground_truth.ply");
+    let truth = ply::read_ply(&truth_path)?.vertices;
+
+    let run_dir = RunDir::start(&a.out, &OUTPUTS)?;
+    let objects = sc
+        .scene
+        .build_objects()
+        .with_context(|| format!("{}: scene", scenario_path.display()))?;
+    let ground_z = ground_height(&sc, &objects, &fused.vertices)
+        .with_context(|| format!("{}: imaging.ground_objects", scenario_path.display()))?;
+    // The truth's triangles as `imaging::build_world` takes them: the truth objects' faces that
+    // do not face down.
+    let truth_triangles: Vec<[Vec3; 3]> = objects
+        .iter()
+        .filter(|o| sc.imaging.truth_objects.contains(&o.name))
+        .flat_map(|o| o.triangles.iter().copied())
+        .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero().z > -0.5)
+        .collect();
+
+    let input = TwinInput {
+        points: &fused.vertices,
+        weights: &weights,
+        voxel_m,
+        ground_z,
+    };
+    let t0 = std::time::Instant::now();
+    let tw = twin::build(&input).with_context(|| format!("{}", fused_path.display()))?;
+    let build_s = t0.elapsed().as_secs_f64();
+    let mut rep = TwinReport::new(a.run_dir.display().to_string(), &input, &tw);
+    rep.twin = Some(
+        twin::score(
+            &tw.solid,
+            &truth,
+            &truth_triangles,
+            density,
+            seed.wrapping_add(3),
+        )
+        .with_context(|| format!("scoring against {}", truth_path.display()))?,
+    );
+    rep.mesh = mesh;
+
+    let solid = &tw.solid;
+    let (tri, _) = solid.triangulate(|_| true);
+    let mut obj = Vec::new();
+    writeln!(
+        obj,
+        "# has planar twin: {} faces, {} buildings",
+        solid.faces.len(),
+        solid.buildings
+    )?;
+    for v in &solid.vertices {
+        writeln!(obj, "v {} {} {}", v.x, v.y, v.z)?;
+    }
+    for b in 0..solid.buildings as u32 {
+        writeln!(obj, "o building_{b}")?;
+        for s in [
+            Surface::WallSurface,
+            Surface::RoofSurface,
+            Surface::GroundSurface,
+        ] {
+            writeln!(obj, "g building_{b}_{s:?}")?;
+            for f in solid
+                .faces
+                .iter()
+                .filter(|f| f.building == b && f.surface == s)
+            {
+                write!(obj, "f")?;
+                for &v in &f.ring {
+                    write!(obj, " {}", v + 1)?;
+                }
+                writeln!(obj)?;
+            }
+        }
+    }
+    let ply_data = PlyData {
+        vertices: tri.vertices.clone(),
+        properties: Vec::new(),
+        faces: tri.faces.clone(),
+    };
+    let city = serde_json::to_vec(&cityjson::document(solid))?;
+    let json =
+        serde_json::to_vec_pretty(&serde_json::json!({ "twin": rep, "build_seconds": build_s }))?;
+    let md = rep.render();
+    has_host::io::write_files(&[
+        (a.out.join("twin.obj"), obj),
+        (a.out.join("twin.city.json"), city),
+        (a.out.join("twin_report.json"), json),
+        (a.out.join("twin_report.md"), md.clone().into_bytes()),
+    ])?;
+    ply::write_ply(
+        &a.out.join("twin.ply"),
+        &ply_data,
+        PlyFormat::BinaryLittleEndian,
+    )?;
+    run_dir.finish()?;
+    print!("{md}");
+    println!("built in {build_s:.1} s; wrote {}", a.out.display());
+    Ok(())
+}
+
+/// The ground objects' height under the centre of the cloud's ground extent, metres.
+fn ground_height(sc: &Scenario, objects: &[has_host::Object], points: &[Vec3]) -> Result<f64> {
+    let ground: Vec<has_host::Object> = objects
+        .iter()
+        .filter(|o| sc.imaging.ground_objects.contains(&o.name))
+        .cloned()
+        .collect();
+    if ground.is_empty() || points.is_empty() {
+        bail!("no ground object to stand the twin on");
+    }
+    let lo = points.iter().fold(Vec3::splat(f32::MAX), |m, &p| m.min(p));
+    let hi = points.iter().fold(Vec3::splat(f32::MIN), |m, &p| m.max(p));
+    let scene = has_host::Scene::new(ground)?;
+    let c = (lo + hi) * 0.5;
+    let top = scene.bounds().1.z.max(hi.z) + 1.0;
+    let hit = scene
+        .closest_hit(Vec3::new(c.x, c.y, top), Vec3::NEG_Z, 0.0, f32::INFINITY)
+        .ok_or_else(|| {
+            anyhow!(
+                "no ground under the cloud's centre ({:.1}, {:.1})",
+                c.x,
+                c.y
+            )
+        })?;
+    Ok(hit.point.z as f64)
+}
