@@ -301,6 +301,17 @@ class Site:
                 p[3] = p[3] - [0, 0, oz]
             ref, Vt, Ft = self.terrain
             self.terrain = (ref, Vt - [0, 0, oz], Ft)
+            # A building stands on the ground: the city scene extrudes each footprint from one
+            # base height, which leaves walls hanging up to 4 m over a sloping street (radar
+            # would see under them, and the truth would lack their lowest storey). Each wall's
+            # bottom vertices go down (or up) to the terrain under them.
+            self.grid_setup()
+            for p in self.parts:
+                if p[1] in ("wall", "all"):
+                    V = p[3].copy()
+                    bottom = V[:, 2] < V[:, 2].min() + 0.01
+                    V[bottom, 2] = self.ground_at(V[bottom, 0], V[bottom, 1])
+                    p[3] = V
         self.grid_setup()
 
     def grid_setup(self):
