@@ -313,14 +313,10 @@ pub fn surface(
             removed_points: keep.iter().filter(|&&k| !k).count(),
             input_points: points.len(),
         });
-        let mut k = keep.iter();
-        points.retain(|_| *k.next().unwrap_or(&true));
-        let mut k = keep.iter();
-        sensors.retain(|_| *k.next().unwrap_or(&true));
-        let mut k = keep.iter();
-        weights.retain(|_| *k.next().unwrap_or(&true));
-        let mut k = keep.iter();
-        observers.retain(|_| *k.next().unwrap_or(&true));
+        retain_kept(&mut points, &keep);
+        retain_kept(&mut sensors, &keep);
+        retain_kept(&mut weights, &keep);
+        retain_kept(&mut observers, &keep);
     }
     // The normals Poisson fits, over the fused points within the support distance (module docs).
     let neighbourhood = Neighbourhood::Within {
@@ -438,14 +434,10 @@ pub fn surface(
                 .map(|i| i < detected || !free.seen_through(points[i], Some(normals[i])))
                 .collect();
             free_space_samples = keep.iter().filter(|&&k| !k).count();
-            let mut k = keep.iter();
-            points.retain(|_| *k.next().unwrap_or(&true));
-            let mut k = keep.iter();
-            normals.retain(|_| *k.next().unwrap_or(&true));
-            let mut k = keep.iter();
-            weights.retain(|_| *k.next().unwrap_or(&true));
-            let mut k = keep.iter();
-            fit.retain(|_| *k.next().unwrap_or(&true));
+            retain_kept(&mut points, &keep);
+            retain_kept(&mut normals, &keep);
+            retain_kept(&mut weights, &keep);
+            retain_kept(&mut fit, &keep);
         }
     }
     let normals = fit;
@@ -470,6 +462,12 @@ pub fn surface(
         visibility,
         seconds: t.elapsed().as_secs_f64(),
     })
+}
+
+/// Keeps the elements of `v` whose `keep` is true (an element past `keep`'s end is kept).
+fn retain_kept<T>(v: &mut Vec<T>, keep: &[bool]) {
+    let mut k = keep.iter();
+    v.retain(|_| *k.next().unwrap_or(&true));
 }
 
 #[cfg(test)]

@@ -15,7 +15,7 @@
 //! lattice cell) from one cell to `front_m` ahead of it along its normal — it is on the outer
 //! face of the wall's image, which is a resolution cell thick and rough — and nothing within
 //! `front_m` of its height from there to two `front_m` ahead, the street in front of a face.
-//! (Asked over the whole height window from the first cell on, as until the twentieth session,
+//! (Asked over the whole height window from the first cell on, as an earlier form did,
 //! the test passed almost nothing of a rough face: on held-out site_35, 25 of 602 wall samples
 //! along the lower rim of a face whose lower storeys another building hides, each blocked by its
 //! own image's bulges a cell ahead; docs/journal/results.md.) The front test is what tells a building's
