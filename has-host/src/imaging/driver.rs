@@ -66,7 +66,7 @@ use rayon::prelude::*;
 use super::centroid::skirt_to_centroid;
 use super::coarse_range::{coarse_range_kernel, filter_rows};
 use super::detection::{
-    alias_is_stronger, alias_window_m, coherence_factor, detected, direct_path_guard_m,
+    alias_is_stronger, alias_window_m, cell_peak, coherence_factor, detected, direct_path_guard_m,
     effective_looks, image_false_alarm_probability, layer_looks_per_voxel, layer_window,
     local_mean, pareto_factor, CfarFactors, NadirBand,
 };
@@ -185,6 +185,9 @@ pub struct PairStats {
     /// Detections in the region dropped as sidelobes of a stronger echo of the same image
     /// (`imaging.sidelobe_test`, [`super::sidelobes`]).
     pub sidelobes: usize,
+    /// Voxels imaged past the lattice where the detections' grating-lobe aliases fall
+    /// (`imaging.alias_test`, [`AliasImage`]).
+    pub alias_voxels: usize,
 }
 
 /// Per-pair constants derived from the scenario.
@@ -1001,7 +1004,6 @@ fn image_guarded(
             stats.backprojections += (offset * coherence_elems.len() * tx_fine.len()) as f64;
         }
     }
-    drop(frames);
     drop(mframes);
     if opts.fixed_point {
         img = qimg;
@@ -1084,6 +1086,29 @@ fn image_guarded(
     drop(img_m);
     drop(img_i);
     drop(img_r);
+    let aliases = if im.alias_test {
+        let t = Instant::now();
+        let a = AliasImage::new(
+            sc,
+            &geo,
+            &bricks,
+            &detected,
+            AliasFrames {
+                frames: &frames,
+                tx: &tx_fine,
+                rx: &rx_fine,
+                bins: nb,
+            },
+            stats.region_voxels,
+        )?;
+        stats.bp_s += t.elapsed().as_secs_f64();
+        stats.alias_voxels = a.img.len();
+        stats.backprojections += (a.img.len() * ne * nt) as f64;
+        a
+    } else {
+        AliasImage::default()
+    };
+    drop(frames);
     let nadir_bands = if im.nadir_guard {
         nadir_bands(sc, world, &geo)
     } else {
@@ -1094,7 +1119,15 @@ fn image_guarded(
         mut intensity,
         outside,
         outside_intensity,
-    } = extract_points(sc, region, &bricks, &img, &detected, &geo, &nadir_bands);
+    } = extract_points(
+        sc,
+        region,
+        (&bricks, &img),
+        &aliases,
+        &detected,
+        &geo,
+        &nadir_bands,
+    );
     if im.sidelobe_test {
         let psf = PairPsf {
             tx: &tx_fine,
@@ -1719,8 +1752,8 @@ fn main_lobe_guard_m(sc: &Scenario) -> f32 {
 fn extract_points(
     sc: &Scenario,
     region: &Scenario,
-    bricks: &[Brick],
-    img: &[Complex32],
+    (bricks, img): (&[Brick], &[Complex32]),
+    aliases: &AliasImage,
     detected: &[bool],
     geo: &PairGeometry,
     nadir_bands: &[NadirBand],
@@ -1747,7 +1780,9 @@ fn extract_points(
             (rel.z / bs).floor() * bs,
         );
         let origin = base + bo * v;
-        let bi = *index.get(&key(origin, v))?;
+        let Some(&bi) = index.get(&key(origin, v)) else {
+            return aliases.at(p);
+        };
         let b = &bricks[bi];
         let local = rel - bo;
         let d = b.bp.grid().dims;
@@ -1799,8 +1834,14 @@ fn extract_points(
             }
             if alias_test {
                 let boxes = alias_boxes(&geo.array, &geo.aperture, p, lambda, bandwidth_hz);
-                if alias_is_stronger(&boxes, a, v, lookup) {
-                    continue;
+                if !boxes.is_empty() {
+                    let (r, xv, xh, xz) =
+                        pair_resolution_m(p, &geo.array, &geo.aperture, lambda, bandwidth_hz);
+                    let own = cell_peak(p, alias_window_m(r, xv, xh, xz), v, lookup)
+                        .map_or(a, |m| m.max(a));
+                    if alias_is_stronger(&boxes, own, v, lookup) {
+                        continue;
+                    }
                 }
             }
             if region.in_region(p) {
@@ -1834,6 +1875,155 @@ struct Extracted {
     intensity: Vec<f32>,
     outside: Vec<Vec3>,
     outside_intensity: Vec<f32>,
+}
+
+/// A pair's frames as the alias image reads them: element-major profiles (`bins` per element
+/// and frame), with the transmit positions and receive elements they were taken at.
+struct AliasFrames<'a> {
+    frames: &'a [Complex32],
+    tx: &'a [Vec3],
+    rx: &'a [Vec3],
+    bins: usize,
+}
+
+/// The pair's image where its detections' grating-lobe aliases fall outside the lattice it
+/// imaged (`imaging.alias_test`).
+///
+/// **Why.** The alias test ([`alias_is_stronger`]) keeps the better focused of a voxel and its
+/// aliases: the panel gives both the same phases, and only the Fresnel zone and the track
+/// defocus the lobe. A neighbour outside the region has its aliases inside it; there, with
+/// nothing imaged at the neighbour, the test had nothing to compare against and the lobe stood
+/// as a ghost facade in the street (a grating lobe of a 1.04 λ panel lies 0.96 in direction sine
+/// from its source: 50–75° away, far beyond any guard band). So the pair is also imaged, with the
+/// same frames and back-projection, on the bricks of the same lattice that the aliases' test
+/// boxes touch outside the lattice's own bricks (those the coarse mask judged are left to it).
+///
+/// **Bound.** At most as many voxels as the region's lattice, 8 B each: the fine pass's worst
+/// case already counts that much per voxel many times over, so the memory estimate holds. The
+/// bricks asked for by the most detections go first; the rest decide nothing, as before.
+#[derive(Default)]
+struct AliasImage {
+    /// Brick index (multiples of `BRICK` voxels from `lo`) → position in `bricks`.
+    index: std::collections::HashMap<[i64; 3], usize>,
+    bricks: Vec<Brick>,
+    img: Vec<Complex32>,
+    lo: Vec3,
+    voxel_m: f32,
+}
+
+impl AliasImage {
+    fn new(
+        sc: &Scenario,
+        geo: &PairGeometry,
+        bricks: &[Brick],
+        detected: &[bool],
+        frames: AliasFrames<'_>,
+        max_voxels: usize,
+    ) -> Result<AliasImage, ImagingError> {
+        let (lo, hi) = sc.region();
+        let v = sc.imaging.voxel_m;
+        let (lambda, bandwidth_hz) = (
+            sc.wavelength_m() as f32,
+            (sc.radar.bandwidth_mhz * 1e6) as f32,
+        );
+        let side = BRICK as f32 * v;
+        let fdims = dims_of(lo, hi, v);
+        let n_bricks = fdims.map(|d| d.div_ceil(BRICK) as i64);
+        // Bricks of the lattice's own extent are the coarse mask's to judge.
+        let judged = |k: [i64; 3]| (0..3).all(|a| k[a] >= 0 && k[a] < n_bricks[a]);
+        let mut asked = std::collections::BTreeMap::<[i64; 3], u64>::new();
+        for b in bricks {
+            let g = b.bp.grid();
+            for i in 0..b.bp.voxels() {
+                if !detected[b.offset + i] {
+                    continue;
+                }
+                let p = g.voxel_world(i).unwrap_or(g.origin);
+                if !in_front_of_panel(&geo.array, p) {
+                    continue;
+                }
+                for (q, half) in alias_boxes(&geo.array, &geo.aperture, p, lambda, bandwidth_hz) {
+                    // The box `alias_is_stronger` reads: whole voxels, at least one each way.
+                    let reach = half.map(|h| (h / v).round().max(1.0) * v);
+                    let k0 = ((q - reach - lo) / side).floor();
+                    let k1 = ((q + reach - lo) / side).floor();
+                    if !(k0.is_finite() && k1.is_finite()) {
+                        continue;
+                    }
+                    for kz in k0.z as i64..=k1.z as i64 {
+                        for ky in k0.y as i64..=k1.y as i64 {
+                            for kx in k0.x as i64..=k1.x as i64 {
+                                let k = [kx, ky, kz];
+                                if !judged(k) {
+                                    *asked.entry(k).or_default() += 1;
+                                }
+                            }
+                        }
+                    }
+                }
+            }
+        }
+        let mut order: Vec<([i64; 3], u64)> = asked.into_iter().collect();
+        order.sort_by(|a, b| b.1.cmp(&a.1).then(a.0.cmp(&b.0)));
+        let per_brick = BRICK * BRICK * BRICK;
+        order.truncate(max_voxels / per_brick);
+        order.sort_by_key(|&(k, _)| k);
+        let mut out = AliasImage {
+            lo,
+            voxel_m: v,
+            ..AliasImage::default()
+        };
+        for (n, &(k, _)) in order.iter().enumerate() {
+            let origin = lo + Vec3::new(k[0] as f32, k[1] as f32, k[2] as f32) * side;
+            let grid = VoxelGrid {
+                origin,
+                spacing: Vec3::splat(v),
+                dims: [BRICK; 3],
+            };
+            out.bricks.push(Brick {
+                rx_local: frames.rx.iter().map(|&p| grid.local(p)).collect(),
+                tx_local: Vec::new(),
+                bp: Backprojector::new(bp_config(sc, geo, grid, false))?,
+                bp_inc: Backprojector::new(bp_config(sc, geo, grid, true))?,
+                offset: n * per_brick,
+                start: [0; 3],
+            });
+            out.index.insert(k, n);
+        }
+        out.img = vec![Complex32::new(0.0, 0.0); out.bricks.len() * per_brick];
+        if out.bricks.is_empty() {
+            return Ok(out);
+        }
+        let (nt, nb) = (frames.tx.len(), frames.bins);
+        let mut prof = vec![Complex32::new(0.0, 0.0); frames.rx.len() * nb];
+        let mut accs = brick_accs_f32(&out.bricks, &mut out.img, |b| &b.bp)?;
+        for (f, &tx) in frames.tx.iter().enumerate() {
+            for (e, row) in prof.chunks_exact_mut(nb).enumerate() {
+                row.copy_from_slice(&frames.frames[(e * nt + f) * nb..(e * nt + f + 1) * nb]);
+            }
+            push_bricks_f32(&mut accs, &out.bricks, |b| &b.bp, tx, &prof, nb)?;
+        }
+        drop(accs);
+        Ok(out)
+    }
+
+    /// `|I|` at the nearest voxel of an alias brick holding `p`; `None` elsewhere.
+    fn at(&self, p: Vec3) -> Option<f32> {
+        if self.bricks.is_empty() {
+            return None;
+        }
+        let rel = ((p - self.lo) / self.voxel_m).round();
+        if !rel.is_finite() {
+            return None;
+        }
+        let b = BRICK as i64;
+        let r = [rel.x as i64, rel.y as i64, rel.z as i64];
+        let k = r.map(|x| x.div_euclid(b));
+        let l = r.map(|x| x.rem_euclid(b) as usize);
+        let n = *self.index.get(&k)?;
+        let i = n * BRICK * BRICK * BRICK + l[0] + BRICK * (l[1] + BRICK * l[2]);
+        self.img.get(i).map(|z| z.norm())
+    }
 }
 
 /// The grating-lobe aliases of voxel `p` for the pair's panel and the aperture's centre
