@@ -52,6 +52,10 @@
 //!   better to 0.009 m worse site by site; docs/journal/results.md, "Normals over a resolution cell");
 //! - repaired for other tools, then connected components under [`MIN_COMPONENT_FRACTION`] of the
 //!   largest one's area dropped;
+//! - where the terrain is known, cut under it: faces whose vertices all lie more than a cell below
+//!   the ground ([`crate::mesh::TriMesh::clip_below_ground`]) — the ground is opaque, and the
+//!   flare Poisson closes under walls whose samples end at a sloping ground lies above the
+//!   region's floor, which is a plane at the ground's lowest point;
 //! - a point whose local surface (its PCA normal, oriented toward its sensors) faces away from
 //!   the transmitter or the receiver of every pair that detected it is left out of the mesher's
 //!   input ([`faces_a_pair`]): a Lambertian facet echoes to a pair only when it faces both of
@@ -441,7 +445,16 @@ pub fn surface(
         }
     }
     let normals = fit;
-    let rec = reconstruct_oriented(&points, normals, Some(&weights), &params)?;
+    let mut rec = reconstruct_oriented(&points, normals, Some(&weights), &params)?;
+    if let Some(terrain) = terrain {
+        // Under the known terrain, by more than the surface's own cell (module docs).
+        let top = clip_box.1.z + 1.0;
+        let ground = |v: Vec3| terrain.below(Vec3::new(v.x, v.y, top)).map(|g| g.z);
+        rec.mesh = rec
+            .mesh
+            .clip_below_ground(ground, rec.poisson.cell_m)
+            .remove_small_components(MIN_COMPONENT_FRACTION)?;
+    }
     Ok(Surface {
         mesh: rec.mesh,
         points,

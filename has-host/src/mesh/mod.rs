@@ -288,6 +288,25 @@ impl TriMesh {
         Ok(out)
     }
 
+    /// Drops the faces whose three vertices all lie more than `depth_m` below `ground(v)`, the
+    /// height of the known ground under vertex `v` (`None` where it is not known: kept), and
+    /// the vertices no face uses. The ground is opaque and known: what the closed Poisson
+    /// surface puts under it (the flare at the foot of walls whose samples end at the ground)
+    /// was never seen, and on sloping ground the region's floor, a plane at its lowest point,
+    /// does not cut it away.
+    pub fn clip_below_ground(
+        &self,
+        ground: impl Fn(Vec3) -> Option<f32> + Sync,
+        depth_m: f32,
+    ) -> TriMesh {
+        let under: Vec<bool> = self
+            .vertices
+            .par_iter()
+            .map(|&v| ground(v).is_some_and(|g| v.z < g - depth_m))
+            .collect();
+        self.with_faces_where(|f| !self.faces[f].iter().all(|&i| under[i as usize]))
+    }
+
     /// Keeps only the faces whose centroid lies within `max_m` of some point of `support` (the
     /// cloud the surface was reconstructed from): surface farther than that from every sample is
     /// the solver's extrapolation, not something that was measured.
@@ -603,6 +622,29 @@ mod tests {
             vertices: vec![Vec3::ZERO, Vec3::X, Vec3::Y, Vec3::Z],
             faces: vec![[0, 2, 1], [0, 1, 3], [0, 3, 2], [1, 2, 3]],
         }
+    }
+
+    #[test]
+    fn faces_wholly_under_the_ground_are_cut_and_faces_reaching_above_it_stay() {
+        // Three separate triangles: one 2 m under the ground (z = 1), one crossing it, one
+        // under it where the ground is not known (x > 10).
+        let tri = |o: Vec3| [o, o + Vec3::X, o + Vec3::Y];
+        let m = TriMesh::from_triangles([
+            tri(Vec3::new(0.0, 0.0, -1.0)),
+            [
+                Vec3::new(3.0, 0.0, -1.0),
+                Vec3::new(4.0, 0.0, 2.0),
+                Vec3::new(3.0, 1.0, -1.0),
+            ],
+            tri(Vec3::new(20.0, 0.0, -1.0)),
+        ]);
+        let ground = |v: Vec3| (v.x < 10.0).then_some(1.0);
+        let cut = m.clip_below_ground(ground, 0.5);
+        assert_eq!(cut.face_count(), 2);
+        assert_eq!(cut.vertex_count(), 6);
+        assert!(cut.vertices.iter().all(|v| v.x >= 3.0));
+        // Within `depth_m` of the ground is kept.
+        assert_eq!(m.clip_below_ground(ground, 2.5).face_count(), 3);
     }
 
     #[test]
