@@ -513,32 +513,6 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
         .absent(&[&out("ues/report.json")]),
         // Writing where it must not.
         row(
-            "turn --out /dev/full",
-            &[
-                "turn",
-                s(&fixture("suite/office_pair.toml")),
-                "--deg",
-                "10",
-                "--out",
-                "/dev/full",
-            ],
-            1,
-            "not a regular file",
-        ),
-        row(
-            "turn --out /dev/null",
-            &[
-                "turn",
-                s(&fixture("suite/office_pair.toml")),
-                "--deg",
-                "10",
-                "--out",
-                "/dev/null",
-            ],
-            1,
-            "not a regular file",
-        ),
-        row(
             "turn --out a directory",
             &[
                 "turn",
@@ -919,29 +893,6 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
             "teeth",
         )
         .absent(&[&out("teeth.obj")]),
-        // Device nodes through the other writers.
-        row(
-            "mesh --out /dev/full",
-            &["mesh", s(&cloud), "--out", "/dev/full", "--depth", "5"],
-            1,
-            "not a regular file",
-        ),
-        row(
-            "mesh --ply /dev/null",
-            &[
-                "mesh",
-                s(&cloud),
-                "--out",
-                s(&out("devply.obj")),
-                "--depth",
-                "5",
-                "--ply",
-                "/dev/null",
-            ],
-            1,
-            "not a regular file",
-        )
-        .absent(&[&out("devply.obj")]),
         // A bad line of --rx-file names the file and the line, not --rx.
         row(
             "a malformed --rx-file line",
@@ -1327,10 +1278,72 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
             "factory.toml",
         ),
     ];
-    // Devices reached through a symbolic link where a run reads or writes a file.
+    // Devices where a run reads or writes a file. Written ones are reached through a symbolic
+    // link in the scratch directory: a writer that renamed over them (the defect these rows
+    // catch) replaces the link there, not the device node, even when the table runs as root.
     #[cfg(unix)]
     {
         use std::os::unix::fs::symlink;
+        let link = |name: &str, to: &str| {
+            let p = d.join(name);
+            symlink(to, &p).unwrap();
+            p
+        };
+        let (full_toml, null_toml) = (
+            link("full.toml", "/dev/full"),
+            link("null.toml", "/dev/null"),
+        );
+        let (full_obj, null_ply) = (link("full.obj", "/dev/full"), link("null.ply", "/dev/null"));
+        rows.extend([
+            row(
+                "turn --out a link to /dev/full",
+                &[
+                    "turn",
+                    s(&fixture("suite/office_pair.toml")),
+                    "--deg",
+                    "10",
+                    "--out",
+                    s(&full_toml),
+                ],
+                1,
+                "not a regular file",
+            ),
+            row(
+                "turn --out a link to /dev/null",
+                &[
+                    "turn",
+                    s(&fixture("suite/office_pair.toml")),
+                    "--deg",
+                    "10",
+                    "--out",
+                    s(&null_toml),
+                ],
+                1,
+                "not a regular file",
+            ),
+            row(
+                "mesh --out a link to /dev/full",
+                &["mesh", s(&cloud), "--out", s(&full_obj), "--depth", "5"],
+                1,
+                "not a regular file",
+            ),
+            row(
+                "mesh --ply a link to /dev/null",
+                &[
+                    "mesh",
+                    s(&cloud),
+                    "--out",
+                    s(&out("devply.obj")),
+                    "--depth",
+                    "5",
+                    "--ply",
+                    s(&null_ply),
+                ],
+                1,
+                "not a regular file",
+            )
+            .absent(&[&out("devply.obj")]),
+        ]);
         let zero_report = spoilt("run_zero_report", "report.json", &|p| {
             symlink("/dev/zero", p).unwrap()
         });
@@ -1454,22 +1467,35 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
             ));
         }
     }
-    // What the rows must not have touched.
+    // What the rows must not have touched, reported with the rows.
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt;
         for dev in ["/dev/null", "/dev/full"] {
-            if let Ok(m) = std::fs::metadata(dev) {
-                assert!(m.file_type().is_char_device(), "{dev} replaced");
+            if std::fs::metadata(dev).is_ok_and(|m| !m.file_type().is_char_device()) {
+                failures.push(format!("{dev} replaced"));
+            }
+        }
+        for link in [
+            "full.toml",
+            "null.toml",
+            "full.obj",
+            "null.ply",
+            "export_null.obj",
+            "npy_null/tau.npy",
+            "twin_into_null/twin.obj",
+        ] {
+            if !std::fs::symlink_metadata(d.join(link)).is_ok_and(|m| m.file_type().is_symlink()) {
+                failures.push(format!("the link {link} was replaced"));
             }
         }
     }
-    assert_eq!(
-        std::fs::read(&cloud).unwrap(),
-        cloud_before,
-        "mesh overwrote its input"
-    );
-    assert!(!Path::new("/tmp/x-V1.ply").exists());
+    if std::fs::read(&cloud).unwrap() != cloud_before {
+        failures.push("mesh overwrote its input".into());
+    }
+    if Path::new("/tmp/x-V1.ply").exists() {
+        failures.push("/tmp/x-V1.ply written".into());
+    }
     let _ = std::fs::remove_dir_all(&d);
     assert!(
         failures.is_empty(),
