@@ -277,6 +277,7 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
     let out = |name: &str| d.join(name);
     let missing = d.join("missing_dir");
     let rx_bad = write("rx_bad.csv", "1,2,1.5\n3,4\n");
+    let reduced_deg = 1e30f64.rem_euclid(360.0).to_string();
     // A binary PLY whose second element has 2⁶⁴ − 1 instances and no property: no instance
     // takes a byte, so no end of file stopped the reader.
     let no_props = d.join("no_props.ply");
@@ -1116,6 +1117,35 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
             1,
             "wall.ply",
         ),
+        // A huge angle turns positions and boresights alike: the scenario turned by 1e30° is
+        // the one turned by 1e30 mod 360 (16°), line for line after the heading that names the
+        // angle (checked after the rows).
+        row(
+            "turn --deg 1e30",
+            &[
+                "turn",
+                s(&fixture("suite/office_pair.toml")),
+                "--deg",
+                "1e30",
+                "--out",
+                s(&out("turn_1e30.toml")),
+            ],
+            0,
+            "",
+        ),
+        row(
+            "turn --deg (1e30 mod 360)",
+            &[
+                "turn",
+                s(&fixture("suite/office_pair.toml")),
+                "--deg",
+                &reduced_deg,
+                "--out",
+                s(&out("turn_reduced.toml")),
+            ],
+            0,
+            "",
+        ),
         // Found by the parser fuzzing: a hang.
         row(
             "a PLY element with 2^64 - 1 instances and no property",
@@ -1489,6 +1519,17 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
                 failures.push(format!("the link {link} was replaced"));
             }
         }
+    }
+    let body = |name: &str| {
+        std::fs::read_to_string(out(name))
+            .map(|t| t.lines().skip(1).map(str::to_string).collect::<Vec<_>>())
+            .unwrap_or_default()
+    };
+    let (huge, reduced) = (body("turn_1e30.toml"), body("turn_reduced.toml"));
+    if huge.is_empty() || huge != reduced {
+        failures.push(format!(
+            "turn --deg 1e30 and --deg {reduced_deg} wrote different scenarios"
+        ));
     }
     if std::fs::read(&cloud).unwrap() != cloud_before {
         failures.push("mesh overwrote its input".into());
