@@ -1472,10 +1472,21 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
             why.push(format!("exit {code}, expected {}", r.code));
         }
         if code == 1 {
-            // One readable line: exactly one error line, holding the word.
+            // One readable line: exactly one error line, holding the word, and nothing after
+            // it (a multi-line message, such as a TOML error's quoted source, continues on
+            // lines without the word "error").
             let lines: Vec<&str> = err.lines().filter(|l| l.contains("error")).collect();
             if lines.len() != 1 || !lines[0].contains(r.word) {
                 why.push(format!("error lines {lines:?} lack {:?}", r.word));
+            }
+            let after = err
+                .lines()
+                .skip_while(|l| !l.contains("has-sim: error"))
+                .skip(1)
+                .filter(|l| !l.trim().is_empty())
+                .count();
+            if after > 0 {
+                why.push(format!("{after} more lines after the error line"));
             }
             if err.contains("panicked") {
                 why.push("panicked".into());
