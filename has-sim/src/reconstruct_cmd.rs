@@ -411,7 +411,7 @@ fn check_pairs_run(
     }
     let shard_path = dir.join(SHARD_RECORD);
     let (path, run, held) = if shard_path.exists() {
-        let text = std::fs::read_to_string(&shard_path)
+        let text = has_host::io::guard::read_input_string(&shard_path)
             .with_context(|| format!("--from-pairs: reading {}", shard_path.display()))?;
         let r: ShardRecord = serde_json::from_str(&text)
             .with_context(|| format!("--from-pairs: parsing {}", shard_path.display()))?;
@@ -429,7 +429,7 @@ fn check_pairs_run(
         (shard_path, run, held)
     } else {
         let path = dir.join("report.json");
-        let text = std::fs::read_to_string(&path).with_context(|| {
+        let text = has_host::io::guard::read_input_string(&path).with_context(|| {
             format!(
                 "--from-pairs: reading {} (a directory of `reconstruct` holds report.json, one \
                  of `reconstruct --shard` {SHARD_RECORD})",

@@ -62,7 +62,7 @@ fn number(report: &Value, path: &Path, key: &str) -> Result<f64> {
 /// One line naming the file and field or value at fault.
 pub fn run(a: TwinArgs) -> Result<()> {
     let report_path = a.run_dir.join("report.json");
-    let text = std::fs::read_to_string(&report_path)
+    let text = has_host::io::guard::read_input_string(&report_path)
         .with_context(|| format!("reading {}", report_path.display()))?;
     let report: Value = serde_json::from_str(&text)
         .with_context(|| format!("{}: not JSON", report_path.display()))?;

@@ -7,7 +7,8 @@
 //! `#[ignore]`d long one runs `HAS_FUZZ_INPUTS` per parser (default 10 M), with seed
 //! `HAS_FUZZ_SEED`, over the parsers `HAS_FUZZ_PARSERS` names (default
 //! `ply,obj,rx,toml,xml`):
-//! `cargo test --release -p has-tests --test parser_fuzz -- --ignored --nocapture`.
+//! `cargo test --release -p has-tests --test parser_fuzz -- --ignored --nocapture`. An input
+//! that takes longer than `HAS_FUZZ_SLOW_S` seconds (default 5) fails the run as a hang.
 
 use std::panic::{catch_unwind, AssertUnwindSafe};
 use std::path::{Path, PathBuf};
@@ -96,8 +97,19 @@ fn mutate(rng: &mut ChaCha8Rng, seed: &[u8]) -> Vec<u8> {
     v
 }
 
+/// Wall time one input may take before it counts as a hang, seconds (`HAS_FUZZ_SLOW_S`,
+/// default 5).
+fn slow_limit_s() -> f64 {
+    std::env::var("HAS_FUZZ_SLOW_S")
+        .ok()
+        .and_then(|s| s.parse().ok())
+        .unwrap_or(5.0)
+}
+
 /// Runs `parse` on `inputs` mutations of the seeds, with seed `seed`; panics naming the first
-/// input (written beside the test's scratch files) that panicked. Returns (ok, err) counts.
+/// input (written beside the test's scratch files) that panicked or took longer than
+/// [`slow_limit_s`]. Prints the counts, the wall time and the slowest input, and a progress
+/// line every 10⁶ inputs. Returns (ok, err) counts.
 fn fuzz(
     name: &str,
     seeds: &[Vec<u8>],
@@ -107,20 +119,51 @@ fn fuzz(
 ) -> (u64, u64) {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let (mut ok, mut err) = (0, 0);
+    let limit = slow_limit_s();
+    let t0 = std::time::Instant::now();
+    let mut slowest = (0.0f64, 0u64);
+    let save = |i: u64, input: &[u8]| {
+        let p = std::env::temp_dir().join(format!("has-fuzz-{name}-{seed}-{i}.bin"));
+        std::fs::write(&p, input).unwrap();
+        p
+    };
     for i in 0..inputs {
         let base = &seeds[rng.random_range(0..seeds.len())];
         let input = mutate(&mut rng, base);
+        let t = std::time::Instant::now();
         match catch_unwind(AssertUnwindSafe(|| parse(&input))) {
             Ok(true) => ok += 1,
             Ok(false) => err += 1,
             Err(_) => {
-                let p = std::env::temp_dir().join(format!("has-fuzz-{name}-{seed}-{i}.bin"));
-                std::fs::write(&p, &input).unwrap();
+                let p = save(i, &input);
                 panic!("{name}: input {i} panicked; saved to {}", p.display());
             }
         }
+        let dt = t.elapsed().as_secs_f64();
+        if dt > slowest.0 {
+            slowest = (dt, i);
+        }
+        if dt > limit {
+            let p = save(i, &input);
+            panic!(
+                "{name}: input {i} took {dt:.1} s (over {limit} s); saved to {}",
+                p.display()
+            );
+        }
+        if (i + 1) % 1_000_000 == 0 && i + 1 < inputs {
+            eprintln!(
+                "{name}: {} inputs, {:.0} s",
+                i + 1,
+                t0.elapsed().as_secs_f64()
+            );
+        }
     }
-    eprintln!("{name}: {inputs} inputs, {ok} parsed, {err} refused");
+    eprintln!(
+        "{name}: {inputs} inputs, {ok} parsed, {err} refused; {:.0} s, slowest input {} ({:.3} s)",
+        t0.elapsed().as_secs_f64(),
+        slowest.1,
+        slowest.0
+    );
     (ok, err)
 }
 

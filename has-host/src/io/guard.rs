@@ -68,7 +68,7 @@ fn check_input(path: &Path) -> std::io::Result<()> {
 ///
 /// # Errors
 /// The OS error, or a directory or device given as the file.
-pub(crate) fn read_input(path: &Path) -> std::io::Result<Vec<u8>> {
+pub fn read_input(path: &Path) -> std::io::Result<Vec<u8>> {
     check_input(path)?;
     let bytes = std::fs::read(path)?;
     note_input(path);
@@ -79,7 +79,7 @@ pub(crate) fn read_input(path: &Path) -> std::io::Result<Vec<u8>> {
 ///
 /// # Errors
 /// As [`read_input`], or text that is not UTF-8.
-pub(crate) fn read_input_string(path: &Path) -> std::io::Result<String> {
+pub fn read_input_string(path: &Path) -> std::io::Result<String> {
     String::from_utf8(read_input(path)?)
         .map_err(|_| std::io::Error::new(std::io::ErrorKind::InvalidData, "not UTF-8 text"))
 }

@@ -277,6 +277,17 @@ fn parse_header(bytes: &[u8], path: &Path) -> Result<Header, MeshIoError> {
         }
     }
     let encoding = encoding.ok_or_else(|| perr(line_no, "no 'format' line in header".into()))?;
+    // An instance without a property takes no byte of a binary body, so no end of file stops
+    // a count of 2⁶⁴ − 1 of them; such an element holds nothing and is refused.
+    if let Some(el) = elements.iter().find(|e| e.count > 0 && e.props.is_empty()) {
+        return Err(perr(
+            line_no,
+            format!(
+                "element '{}' declares {} instances but no property",
+                el.name, el.count
+            ),
+        ));
+    }
     Ok(Header {
         encoding,
         elements,
@@ -849,6 +860,40 @@ mod tests {
             assert!(e.contains("vertex"), "{fmt}: {e}");
             assert_eq!(e.lines().count(), 1, "{fmt}: {e}");
         }
+    }
+
+    #[test]
+    fn an_element_without_properties_is_refused_at_once() {
+        // Its instances take no byte of a binary body: 2⁶⁴ − 1 of them in a 150-byte file kept
+        // the reader looping without end.
+        for fmt in ["binary_little_endian", "ascii"] {
+            let mut bytes = format!(
+                "ply\nformat {fmt} 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+                 property float z\nelement junk 18446744073709551615\nend_header\n"
+            )
+            .into_bytes();
+            bytes.extend_from_slice(if fmt == "ascii" {
+                b"0 0 0\n"
+            } else {
+                &[0u8; 12]
+            });
+            let t0 = std::time::Instant::now();
+            let e = parse_ply(&bytes, Path::new("junk.ply"))
+                .unwrap_err()
+                .to_string();
+            assert!(t0.elapsed().as_secs_f64() < 1.0, "{fmt}");
+            assert!(
+                e.contains("junk.ply") && e.contains("element 'junk'") && e.contains("no property"),
+                "{fmt}: {e}"
+            );
+        }
+        // An empty element without properties is harmless.
+        let ok = b"ply\nformat ascii 1.0\nelement vertex 1\nproperty float x\nproperty float y\n\
+                   property float z\nelement junk 0\nend_header\n1 2 3\n";
+        assert_eq!(
+            parse_ply(ok, Path::new("ok.ply")).unwrap().vertices.len(),
+            1
+        );
     }
 
     #[test]
