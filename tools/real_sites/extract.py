@@ -696,6 +696,60 @@ class Site:
         self.los = out
         return out
 
+    def place_target_track(self):
+        """The moving target of `has-sim localize` (flat sites): a 20 m straight track on a street
+        near the group, in line of sight of a base station (the monostatic sensing BS: BS1, else
+        the next one that has such a track) at 20-50 m, within
+        +-25 deg of the boresight that points at the track's middle, with 4 m of free ground
+        (the 3 m target cylinder plus 1 m) all along. Deterministic: the candidate nearest the
+        group, ties by raster order."""
+        g = self.grid
+        tdist = ndi.distance_transform_edt(~self.tmask, sampling=RES)
+        gy, gx = np.gradient(self.dist_b)
+        tris = self.scene_tris()
+        jj, ii = np.nonzero((self.dist_b >= 5.0) & (tdist >= 5.0) & (tdist <= 40.0))
+        order = np.lexsort((ii, jj, tdist[jj, ii]))
+        half = 10.0
+        for n, b in enumerate(self.bs, 1):
+            if self._track_for(n, b["pos"], g, jj, ii, order, gx, gy, half, tris):
+                return
+        raise RuntimeError(f"{self.name}: no target track in sight of a base station")
+
+    def _track_for(self, n, bs, g, jj, ii, order, gx, gy, half, tris):
+        for k in order[::7]:
+            j, i = jj[k], ii[k]
+            x, y = g.xy(i, j)
+            gr = np.array([gx[j, i], gy[j, i]])
+            if np.linalg.norm(gr) < 1e-6:
+                continue
+            d = np.array([-gr[1], gr[0]]) / np.linalg.norm(gr)
+            pts = [np.array([x, y]) + s * half * d for s in np.linspace(-1, 1, 21)]
+            ok = True
+            for e in pts:
+                ei, ej = g.ij(e[0], e[1])
+                if not (0 <= ei < g.nx and 0 <= ej < g.ny) or self.dist_b[ej, ei] < 4.0:
+                    ok = False
+                    break
+            if not ok:
+                continue
+            rng_h = [np.hypot(*(e - bs[:2])) for e in pts]
+            if min(rng_h) < 20.0 or max(rng_h) > 50.0:
+                continue
+            mid = np.array([x, y])
+            bore = math.atan2(mid[1] - bs[1], mid[0] - bs[0])
+            az = [math.atan2(e[1] - bs[1], e[0] - bs[0]) for e in pts]
+            if max(abs((a - bore + math.pi) % (2 * math.pi) - math.pi) for a in az) > math.radians(25.0):
+                continue
+            # line of sight from the BS to the target's top and middle along the whole track
+            ends = np.array([[e[0], e[1], h] for e in pts for h in (1.5, 3.0)])
+            origins = np.repeat(bs[None], len(ends), axis=0)
+            if segment_blocked(tris, origins, ends).any():
+                continue
+            self.target = dict(start=np.array([*pts[0], 0.0]), end=np.array([*pts[-1], 0.0]),
+                               bore=math.degrees(bore), range=(min(rng_h), max(rng_h)), bs=n, pos=bs)
+            return True
+        return False
+
     def inside_building(self, p):
         i, j = self.grid.ij(p[0], p[1])
         return bool(self.bmask[j, i] and p[2] < self.top[j, i] + 0.1)
@@ -832,6 +886,16 @@ class Site:
             o.append(f"ue_region_min = {f(ulo)}")
             o.append(f"ue_region_max = {f(uhi)}")
             o.append(CHANNEL)
+            t = self.target
+            o.append("")
+            o.append(f"# Moving-target sensing: BS{t['bs']} monostatic, a 3 m metal cylinder on a 20 m track of a street")
+            o.append(f"# near the group, {t['range'][0]:.0f}-{t['range'][1]:.0f} m from the BS in line of sight; the twin is the group's.")
+            o.append("[localize]")
+            o.append(f"position = {f(t['pos'])}")
+            o.append(f"boresight_deg = {t['bore']:.1f}")
+            o.append(f"track_start = {f(t['start'])}")
+            o.append(f"track_end = {f(t['end'])}")
+            o.append(LOCALIZE)
         return "\n".join(o) + "\n"
 
 
@@ -887,6 +951,58 @@ max_order = 2
 sbr_rays = 50000"""
 
 
+LOCALIZE = """rows = 32
+cols = 32
+spacing_wavelengths = 0.5
+fc_ghz = 10.0
+bandwidth_mhz = 100.0
+subcarriers = 256
+zero_pad = 2
+window = "hann"
+symbols = 32
+symbol_interval_ms = 1.0
+frames = 16
+tx_power_dbm = 30.0
+noise_figure_db = 7.0
+target_radius_m = 3.0
+target_height_m = 3.0
+target_speed_mps = 1.4
+target_material = "metal"
+target_density_per_m2 = 4.0
+ground_objects = ["ground"]
+building_density_per_m2 = 4.0
+ground_density_per_m2 = 1.0
+clutter_range_m = 110.0
+range_min_m = 8.0
+range_max_m = 70.0
+fov_azimuth_deg = 60.0
+fov_elevation_deg = [-45.0, 15.0]
+angle_fft = 64
+doppler_fft = 64
+eca_batch = 8
+eca_extra = 4
+cfar_train = 12
+cfar_guard = 3
+cfar_pfa = 1e-6
+extent_db = 12.0
+false_alarm_gate_m = 3.0
+twin_ground_z = 0.0
+twin_density_per_m2 = 4.0
+templates = 8
+gate_cnr_db = 40.0
+clutter_margin_db = 15.0
+seed = 7
+
+[localize.quick]
+frames = 5
+symbols = 16
+eca_batch = 4
+eca_extra = 2
+ground_density_per_m2 = 0.5
+building_density_per_m2 = 2.0
+twin_density_per_m2 = 2.0"""
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--sites", default="", help="comma-separated site names (default: all)")
@@ -921,6 +1037,8 @@ def main():
                 [s.uav["start"], s.uav["end"]]:
             assert not s.inside_building(p), (name, p)
         los = s.check_los()
+        if s.terrain is None:
+            s.place_target_track()
         s.write()
         fp, heights = s.stats()
         print(f"{name}: {len(s.keep)} buildings, footprint {fp:.0f} m2, heights "
