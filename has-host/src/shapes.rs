@@ -614,6 +614,19 @@ pub fn translate(obj: &mut Object, offset: Vec3) {
     }
 }
 
+/// Turns `obj`'s vertices by `rad` radians counter-clockwise (seen from above) about the vertical
+/// axis through x = y = 0; heights are kept. The sine and cosine are taken in f64 once.
+pub fn rotate_z(obj: &mut Object, rad: f64) {
+    let (sin, cos) = rad.sin_cos();
+    for t in &mut obj.triangles {
+        for v in t {
+            let (x, y) = (v.x as f64, v.y as f64);
+            v.x = (cos * x - sin * y) as f32;
+            v.y = (sin * x + cos * y) as f32;
+        }
+    }
+}
+
 /// `obj` moved by `offset` metres.
 pub fn translated(mut obj: Object, offset: Vec3) -> Object {
     translate(&mut obj, offset);

@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use anyhow::{bail, Context, Result};
 use glam::Vec2;
 use has_host::io::atomic_write;
+use has_host::scenario::ObjectSpec;
 
 use crate::reconstruct_cmd::load_scenario;
 
@@ -38,6 +39,16 @@ pub fn run(args: TurnArgs) -> Result<()> {
     let turned = sc
         .turned(args.deg, about)
         .with_context(|| format!("turning {name}"))?;
+    // Mesh files are named relative to the scenario read; the turned file may live elsewhere.
+    let mut turned = turned;
+    let base = turned.scene.base_dir.clone();
+    for o in &mut turned.scene.objects {
+        if let ObjectSpec::Mesh(m) = o {
+            let p = base.join(&m.path);
+            m.path =
+                std::fs::canonicalize(&p).with_context(|| format!("scene mesh {}", p.display()))?;
+        }
+    }
     let text = format!(
         "# {name} turned by {}° counter-clockwise about ({}, {}) m by `has-sim turn`\n\n{}",
         args.deg,

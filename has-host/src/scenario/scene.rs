@@ -198,9 +198,18 @@ pub struct MeshSpec {
         serialize_with = "ser_material_opt"
     )]
     pub material: Option<Material>,
-    /// Translation `[x, y, z]` applied to the loaded vertices, metres. Default `[0, 0, 0]`.
+    /// Translation `[x, y, z]` applied to the loaded vertices (after `yaw_deg`), metres. Default
+    /// `[0, 0, 0]`.
     #[serde(default)]
     pub offset: [f32; 3],
+    /// Rotation of the loaded vertices about the file's vertical axis (x = y = 0), degrees
+    /// counter-clockwise seen from above, applied before `offset`. Default 0.
+    #[serde(default, skip_serializing_if = "is_zero")]
+    pub yaw_deg: f32,
+}
+
+fn is_zero(v: &f32) -> bool {
+    *v == 0.0
 }
 
 fn default_cells() -> [u32; 2] {
@@ -426,10 +435,19 @@ impl SceneSpec {
                             msg: format!("offset {:?} is not finite", m.offset),
                         }));
                     }
+                    if !m.yaw_deg.is_finite() {
+                        return Err(mesh_err(MeshIoError::BadData {
+                            path: m.path.clone(),
+                            msg: format!("yaw_deg {} is not finite", m.yaw_deg),
+                        }));
+                    }
                     let path = self.base_dir.join(&m.path);
                     let mut objs = io::load_objects(&path, m.material).map_err(mesh_err)?;
                     let single = objs.len() == 1;
                     for o in &mut objs {
+                        if m.yaw_deg != 0.0 {
+                            shapes::rotate_z(o, (m.yaw_deg as f64).to_radians());
+                        }
                         shapes::translate(o, offset);
                         if let Some(n) = &m.name {
                             o.name = if single {

@@ -4,10 +4,11 @@
 //!
 //! [`Scenario::turned`] turns everything placed in the plane by an angle, counter-clockwise seen
 //! from above, about the vertical axis through a point (x, y): building centres and yaws,
-//! cylinder centres, base-station positions and boresights, the terminals' tracks, the imaging
+//! cylinder centres, mesh objects (their `yaw_deg` and `offset`), base-station positions and
+//! boresights, the terminals' tracks, the imaging
 //! region (its rectangle becomes a `region_polygon`, its bounding box the new
 //! `region_min`/`region_max`; a polygon turns vertex by vertex), the `[channel]` base station and
-//! the `[localize]` base station and track. Heights do not change. Three things cannot turn and
+//! the `[localize]` base station and track. Heights do not change. Two things cannot turn and
 //! are kept or refused:
 //! - a ground rectangle is axis-aligned in the file format: it stays as it is; where the grounds
 //!   covered every corner of the imaging region before the turn, a turned corner no ground covers
@@ -15,8 +16,7 @@
 //!   or turn about the site's centre);
 //! - the `[channel]` UE rectangle is axis-aligned too: it becomes the turned rectangle's bounding
 //!   box, so the channel experiment draws other UEs (its result is not expected to turn with the
-//!   site);
-//! - a mesh object carries only an offset: turning one is an error naming the object.
+//!   site).
 //!
 //! Units: degrees in the call as in the file, metres.
 
@@ -73,8 +73,8 @@ impl Scenario {
     /// vertical axis through `about` (x, y, metres), validated (module docs).
     ///
     /// # Errors
-    /// [`ScenarioError::Invalid`] naming `deg` or `about` when not finite, or a mesh object
-    /// (which cannot be turned); any error [`Scenario::validate`] finds in the turned scenario.
+    /// [`ScenarioError::Invalid`] naming `deg` or `about` when not finite; any error
+    /// [`Scenario::validate`] finds in the turned scenario.
     pub fn turned(&self, deg: f64, about: Vec2) -> Result<Scenario, ScenarioError> {
         let invalid = |field: &str, value: String, expected: &'static str| ScenarioError::Invalid {
             field: field.into(),
@@ -102,7 +102,7 @@ impl Scenario {
             deg,
         };
         let mut s = self.clone();
-        for (i, o) in s.scene.objects.iter_mut().enumerate() {
+        for o in s.scene.objects.iter_mut() {
             match o {
                 ObjectSpec::Building(b) | ObjectSpec::Box(b) => {
                     b.center = t.f32_2(b.center);
@@ -111,11 +111,11 @@ impl Scenario {
                 ObjectSpec::Cylinder(c) => c.center = t.f32_2(c.center),
                 ObjectSpec::Ground(_) => {}
                 ObjectSpec::Mesh(m) => {
-                    return Err(invalid(
-                        &format!("scene.objects[{i}]"),
-                        format!("{:?}", m.path),
-                        "no mesh object: a mesh carries only an offset and cannot be turned",
-                    ))
+                    // v ↦ R(θ)(R(yaw)v + offset − about) + about: the yaw grows by θ, the
+                    // offset turns like a position.
+                    let [x, y] = t.f32_2([m.offset[0], m.offset[1]]);
+                    m.offset = [x, y, m.offset[2]];
+                    m.yaw_deg = t.azimuth(m.yaw_deg as f64) as f32;
                 }
             }
         }
@@ -303,22 +303,45 @@ mod tests {
     }
 
     #[test]
-    fn a_mesh_object_is_refused_naming_it() {
+    fn a_mesh_object_turns_with_the_site() {
+        let dir = std::env::temp_dir().join(format!("has-turn-mesh-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        std::fs::write(
+            dir.join("kiosk.obj"),
+            "v 1 0 0\nv 4 1 0\nv 2 3 5\nf 1 2 3\n",
+        )
+        .unwrap();
         let mut s = fixture("fixtures/suite/street_row.toml");
+        s.scene.set_base_dir(&dir);
         s.scene
             .objects
             .push(ObjectSpec::Mesh(super::super::MeshSpec {
-                name: None,
+                name: Some("kiosk".into()),
                 path: "kiosk.obj".into(),
-                material: None,
-                offset: [0.0; 3],
+                material: Some(crate::Material::Metal),
+                offset: [5.0, -2.0, 1.0],
+                yaw_deg: 10.0,
             }));
-        let i = s.scene.objects.len() - 1;
-        let e = s.turned(10.0, Vec2::ZERO).unwrap_err().to_string();
-        assert!(
-            e.contains(&format!("scene.objects[{i}]")) && e.contains("kiosk.obj"),
-            "{e}"
-        );
+        let kiosk = |s: &Scenario| -> [Vec3; 3] {
+            let objs = s.scene.build_objects().unwrap();
+            objs.iter().find(|o| o.name == "kiosk").unwrap().triangles[0]
+        };
+        let (deg, about) = (-137.0f64, Vec2::new(2.0, 3.0));
+        let turned = s.turned(deg, about).unwrap();
+        let (before, after) = (kiosk(&s), kiosk(&turned));
+        let (sin, cos) = (deg.to_radians().sin() as f32, deg.to_radians().cos() as f32);
+        for (b, a) in before.iter().zip(&after) {
+            let d = Vec2::new(b.x, b.y) - about;
+            let want = about + Vec2::new(cos * d.x - sin * d.y, sin * d.x + cos * d.y);
+            assert!(
+                (Vec2::new(a.x, a.y) - want).length() < 1e-4 && (a.z - b.z).abs() < 1e-6,
+                "{a} vs {want} (from {b})"
+            );
+        }
+        // Written and read back, the yaw and offset carry the turn.
+        let text = turned.to_toml_string().unwrap();
+        assert!(text.contains("yaw_deg"), "{text}");
+        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
