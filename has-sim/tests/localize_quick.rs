@@ -37,6 +37,27 @@ fn bad_input_is_one_readable_line() {
     assert!(!o.status.success());
     let err = String::from_utf8_lossy(&o.stderr);
     assert!(err.contains("no [localize] table"), "{err}");
+    // A known object the scene does not have is named with its field.
+    let bogus = text.replace(
+        "\n[localize]\n",
+        "\n[localize]\nknown_objects = [\"nowhere\"]\n",
+    );
+    assert_ne!(bogus, text);
+    std::fs::write(&scen, &bogus).unwrap();
+    let o = Command::new(env!("CARGO_BIN_EXE_has-sim"))
+        .arg("localize")
+        .arg(&scen)
+        .args(["--quick", "--truth-twin", "--out"])
+        .arg(out.join("bogus"))
+        .output()
+        .expect("has-sim runs");
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(
+        err.contains("localize.known_objects") && err.contains("nowhere"),
+        "{err}"
+    );
+    assert_eq!(err.trim_end().lines().count(), 1, "{err}");
     let _ = std::fs::remove_dir_all(&out);
 }
 

@@ -879,22 +879,29 @@ class Site:
             ulo = np.maximum(self.region.min(0) - pad, lo + 5)
             uhi = np.minimum(self.region.max(0) + pad, hi - 5)
             o.append("")
-            o.append("# Channel prediction: the BS at BS1, 500 UEs at 1.5 m in a rectangle around the group.")
+            o.append("# Channel prediction: the BS at BS1, 500 UEs at 1.5 m in a rectangle around the group; the")
+            o.append("# twin is the reconstruction of the group plus the neighbours as mapped (known objects).")
             o.append("[channel]")
             o.append(f"bs_position = {f(b['pos'])}")
             o.append(f"bs_boresight_deg = {b['bore']:.1f}")
             o.append(f"ue_region_min = {f(ulo)}")
             o.append(f"ue_region_max = {f(uhi)}")
+            # The map's buildings outside the group are known to the twin (an operator has them
+            # from OSM); the twin refines the group it imaged.
+            known = ["ground"] + [p[0] for p in self.parts if not p[5]]
+            o.append("known_objects = [" + ", ".join(f'"{k}"' for k in known) + "]")
             o.append(CHANNEL)
             t = self.target
             o.append("")
             o.append(f"# Moving-target sensing: BS{t['bs']} monostatic, a 3 m metal cylinder on a 20 m track of a street")
-            o.append(f"# near the group, {t['range'][0]:.0f}-{t['range'][1]:.0f} m from the BS in line of sight; the twin is the group's.")
+            o.append(f"# near the group, {t['range'][0]:.0f}-{t['range'][1]:.0f} m from the BS in line of sight; the prior is the twin of the")
+            o.append("# group plus the neighbours as mapped (known objects).")
             o.append("[localize]")
             o.append(f"position = {f(t['pos'])}")
             o.append(f"boresight_deg = {t['bore']:.1f}")
             o.append(f"track_start = {f(t['start'])}")
             o.append(f"track_end = {f(t['end'])}")
+            o.append("known_objects = [" + ", ".join(f'"{k}"' for k in known[1:]) + "]")
             o.append(LOCALIZE)
         return "\n".join(o) + "\n"
 
@@ -943,7 +950,6 @@ codebook_cols = 32
 codebook_spacing_wl = 0.5
 match_delay_ns = 1.0
 match_angle_deg = 1.0
-known_objects = ["ground"]
 
 [channel.quick]
 ues = 100

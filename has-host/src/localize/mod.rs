@@ -70,8 +70,13 @@ pub enum LocalizeError {
     #[error("metrics: {0}")]
     Metric(#[from] crate::knn::GeometryError),
     /// An object named in `[localize]` does not exist.
-    #[error("localize.ground_objects: no object named '{0}' in the scene")]
-    UnknownObject(String),
+    #[error("localize.{field}: no object named '{name}' in the scene")]
+    UnknownObject {
+        /// The list that names it: `ground_objects` or `known_objects`.
+        field: &'static str,
+        /// The name.
+        name: String,
+    },
     /// An internal invariant (a bug).
     #[error("internal: {0}")]
     Internal(&'static str),

@@ -153,7 +153,8 @@ fn clutter_set(
 }
 
 /// Runs the experiment. `scene` is the true environment (its objects named in
-/// `spec.ground_objects` are ground); `twin` the reconstructed mesh's objects (the prior).
+/// `spec.ground_objects` are ground); `twin` the reconstructed mesh's objects (the prior, to which
+/// the scene's `spec.known_objects` are added as they are).
 /// `progress(done, total)` is called after each frame.
 ///
 /// # Errors
@@ -176,9 +177,15 @@ pub fn run_localize(
 
     // True static clutter, compressed profiles [e][b] (model (a), see module docs).
     let names: Vec<&str> = scene.objects.iter().map(|o| o.name.as_str()).collect();
-    for g in &spec.ground_objects {
-        if !names.contains(&g.as_str()) {
-            return Err(LocalizeError::UnknownObject(g.clone()));
+    for (field, list) in [
+        ("ground_objects", &spec.ground_objects),
+        ("known_objects", &spec.known_objects),
+    ] {
+        if let Some(g) = list.iter().find(|g| !names.contains(&g.as_str())) {
+            return Err(LocalizeError::UnknownObject {
+                field,
+                name: g.clone(),
+            });
         }
     }
     let is_ground: Vec<bool> = scene
@@ -210,6 +217,15 @@ pub fn run_localize(
         .map(|o| o.material)
         .unwrap_or(Material::Concrete);
     let mut twin_objects = twin;
+    // Known objects the twin does not already hold (an oracle twin holds them all).
+    let known: Vec<Object> = scene
+        .objects
+        .iter()
+        .filter(|o| spec.known_objects.contains(&o.name))
+        .filter(|o| !twin_objects.iter().any(|t| t.name == o.name))
+        .cloned()
+        .collect();
+    twin_objects.extend(known);
     let twin_ground_index = twin_objects.len();
     twin_objects.push(crate::shapes::ground(
         "twin_ground",

@@ -76,6 +76,11 @@ pub struct LocalizeSpec {
     /// Scene objects treated as ground (sampled at `ground_density_per_m2`); the rest at
     /// `building_density_per_m2`.
     pub ground_objects: Vec<String>,
+    /// Objects of the true scene the twin carries as they are (the map's buildings outside the
+    /// reconstructed region, from a survey or OpenStreetMap): the prior is the twin's mesh plus
+    /// these. Default: none.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub known_objects: Vec<String>,
     /// Scatterers per m² on the non-ground objects.
     pub building_density_per_m2: f64,
     /// Scatterers per m² on the ground objects.
