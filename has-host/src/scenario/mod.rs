@@ -556,7 +556,8 @@ impl Scenario {
     /// applied; how the fine pass back-projects left out, as `--fixed-point` is, and so are the
     /// switches of the fusion that reads the pair clouds: `smear_centroid`,
     /// `resolved_confirmation`, `fusion_min_weight`, `cross_pair_denials`, `terrain_echo_test`,
-    /// `own_sight_test`, `free_space_test`, `finer_height_test`): 16 hex digits of FNV-1a over the text. Mesh
+    /// `own_sight_test`, `free_space_test`, `finer_height_test`; and the downstream experiments'
+    /// `[channel]` and `[localize]` tables): 16 hex digits of FNV-1a over the text. Mesh
     /// objects count by their path and offset, not their file's bytes. Two runs with the same
     /// digest imaged the same site with the same draw, so `--from-pairs` may fuse one run's pair
     /// clouds under the other's fusion switches.
@@ -566,6 +567,8 @@ impl Scenario {
     pub fn digest(&self) -> Result<String, ScenarioError> {
         let mut s = self.clone();
         s.imaging.backprojection = Backprojection::default();
+        // The experiments that use the twin do not touch the pair images.
+        (s.channel, s.localize) = (None, None);
         // The fusion's switches at one fixed setting: they do not touch the pair images.
         let im = &mut s.imaging;
         (im.smear_centroid, im.resolved_confirmation) = (true, true);
@@ -1376,7 +1379,7 @@ mod tests {
     }
 
     #[test]
-    fn the_digest_follows_the_imaging_and_not_the_fusions_switches() {
+    fn the_digest_follows_the_imaging_and_not_the_fusions_switches_or_the_experiments() {
         let sc = factory();
         let d = sc.digest().unwrap();
         let mut fusion = sc.clone();
@@ -1386,6 +1389,11 @@ mod tests {
         fusion.imaging.own_sight_test = !fusion.imaging.own_sight_test;
         fusion.imaging.free_space_test = !fusion.imaging.free_space_test;
         assert_eq!(fusion.digest().unwrap(), d);
+        // The downstream experiments read the twin, not the pair images.
+        let mut downstream = sc.clone();
+        assert!(downstream.channel.is_some() && downstream.localize.is_some());
+        (downstream.channel, downstream.localize) = (None, None);
+        assert_eq!(downstream.digest().unwrap(), d);
         let mut imaging = sc.clone();
         imaging.imaging.sidelobe_test = !imaging.imaging.sidelobe_test;
         assert_ne!(imaging.digest().unwrap(), d);
