@@ -70,11 +70,16 @@
 //! (site_11: a 3 m stretch of a glass sawtooth block's wall). A recess wider than a resolution
 //! cell has no such neighbours in its middle and keeps its wall.
 //!
-//! **Beyond the imaging region nothing was imaged**, so nothing is known to be open there: a
-//! wall's front and a roof's open sector count only where the region reaches two `front_m` past
-//! the sample (the street in front of a face). A region drawn through a building otherwise stood
-//! a wall along the cut (the factory with its region ending at x = 5 m, inside the hall, quick:
-//! 23 of 28 roof-edge columns along the cut, the mesh's false surface 8.9 %; 0.8 % without them).
+//! **Beyond the imaging region nothing was imaged**, so nothing is known to be open there. A
+//! wall's front counts only where the region reaches two `front_m` past the sample (the street
+//! its front test reads). A roof's look counts only where the region reaches one `front_m` past
+//! the roof column: the roof's image ends within half a resolution cell (`front_m`) of where the
+//! roof ends, so a border nearer than that may cut the roof, and one farther leaves the ground
+//! the wall stands on inside the region. A region drawn through a building otherwise stood a wall
+//! along the cut (the factory with its region ending at x = 5 m, inside the hall, quick: 23 of 28
+//! roof-edge columns along the cut, the mesh's false surface 8.9 %; 0.8 % without them). Two
+//! `front_m` would drop the walls of buildings whose region ends a few metres past them (the
+//! neighbour across the street drawn out of the region).
 //!
 //! Only the mesh uses them: the fused cloud (what the pairs detected) is unchanged, and where the
 //! terrain is not known nothing is added. Units: metres, world frame; z up.
@@ -399,7 +404,7 @@ pub fn roof_edge_walls(
     // what first holds something at or under `z` is, more than a resolution cell away, another
     // face looking back across the open ground between under the roof's height.
     let open = |p: Vec3, u: Vec3, z: f32| {
-        if !imaged((p + u * (2.0 * front_m)).truncate()) {
+        if !imaged((p + u * front_m).truncate()) {
             return false;
         }
         let own = key(p);
@@ -1044,6 +1049,11 @@ mod tests {
         // The whole roof in the region: the border side has its wall again.
         let all = edges(&p, Some(0.5));
         assert!(all.points.iter().zip(&all.normals).any(|(_, m)| m.x > 0.7));
+        // A region that ends 3 m past the roof (more than `front_m`, less than two): the street
+        // in front of the wall is in the region, and so is the wall.
+        let street = |q: Vec2| q.x <= 13.25;
+        let c = roof_edge_walls(&p, &n, &vec![0.7; p.len()], 0.5, 2.0, |_| Some(0.5), street);
+        assert!(c.points.iter().zip(&c.normals).any(|(_, m)| m.x > 0.7));
     }
 
     #[test]
