@@ -45,6 +45,9 @@ pub fn run(args: TurnArgs) -> Result<()> {
     for o in &mut turned.scene.objects {
         if let ObjectSpec::Mesh(m) = o {
             let p = base.join(&m.path);
+            if !p.is_file() {
+                bail!("scene mesh {}: not a file", p.display());
+            }
             m.path =
                 std::fs::canonicalize(&p).with_context(|| format!("scene mesh {}", p.display()))?;
         }

@@ -246,6 +246,32 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
     );
     let bad_toml = write("bad_scene.toml", "[scene]\nobjects = [[[\n");
     let wall = write("wall.ply", WALL_PLY);
+    // A mesh object of the scene, placed by `extra`, loaded from `path` beside the file.
+    let with_mesh = |name: &str, path: &str, extra: &str| {
+        write(
+            name,
+            &edit(
+                &office,
+                "[radar]",
+                &format!(
+                    "[[scene.objects]]\nkind = \"mesh\"\npath = \"{path}\"\n\
+                     material = \"metal\"\n{extra}\n\n[radar]"
+                ),
+            ),
+        )
+    };
+    let yaw_nan = with_mesh("yaw_nan.toml", "wall.ply", "yaw_deg = nan");
+    let yaw_huge = with_mesh("yaw_huge.toml", "wall.ply", "yaw_deg = 1e30");
+    std::fs::create_dir_all(d.join("dir.ply")).unwrap();
+    let mesh_dir = with_mesh("mesh_dir.toml", "dir.ply", "");
+    let known_up = write(
+        "known_up.toml",
+        &edit(
+            &factory,
+            "\n[localize]\n",
+            "\n[localize]\nknown_objects = [\"../../etc/passwd\"]\n",
+        ),
+    );
     let cloud = d.join("cloud.ply");
     // A sphere of 800 points, radius 5 m: meshes at depth 5 in a moment.
     let n = 800;
@@ -1307,6 +1333,68 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
             2,
             "factory.toml",
         ),
+        // A mesh object's placement and a known object's name.
+        row(
+            "scene info: a mesh's yaw_deg NaN",
+            &["scene", "info", "--scene", s(&yaw_nan)],
+            1,
+            "yaw_deg",
+        ),
+        row(
+            "turn: a mesh's yaw_deg NaN",
+            &[
+                "turn",
+                s(&yaw_nan),
+                "--deg",
+                "10",
+                "--out",
+                s(&out("yaw_nan_turned.toml")),
+            ],
+            1,
+            "yaw_deg",
+        )
+        .absent(&[&out("yaw_nan_turned.toml")]),
+        row(
+            "turn: a mesh's yaw_deg 1e30 is an angle",
+            &[
+                "turn",
+                s(&yaw_huge),
+                "--deg",
+                "10",
+                "--out",
+                s(&out("yaw_huge_turned.toml")),
+            ],
+            0,
+            "",
+        ),
+        row(
+            "turn: a mesh path that is a directory",
+            &[
+                "turn",
+                s(&mesh_dir),
+                "--deg",
+                "10",
+                "--out",
+                s(&out("mesh_dir_turned.toml")),
+            ],
+            1,
+            "dir.ply",
+        )
+        .absent(&[&out("mesh_dir_turned.toml")]),
+        row(
+            "localize: a known object named '../../etc/passwd'",
+            &[
+                "localize",
+                s(&known_up),
+                "--quick",
+                "--truth-twin",
+                "--out",
+                s(&out("known_up")),
+            ],
+            1,
+            "localize.known_objects",
+        )
+        .absent(&[&out("known_up/report.json")]),
     ];
     // Devices where a run reads or writes a file. Written ones are reached through a symbolic
     // link in the scratch directory: a writer that renamed over them (the defect these rows

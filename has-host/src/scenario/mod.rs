@@ -751,6 +751,18 @@ impl Scenario {
         if !r.snr_db.is_finite() {
             return Err(FIELDS.invalid("radar.snr_db", r.snr_db, "finite"));
         }
+        for (i, o) in self.scene.objects.iter().enumerate() {
+            if let ObjectSpec::Mesh(m) = o {
+                FIELDS.finite(format!("scene.objects[{i}].offset"), m.offset)?;
+                if !m.yaw_deg.is_finite() {
+                    return Err(FIELDS.invalid(
+                        format!("scene.objects[{i}].yaw_deg"),
+                        m.yaw_deg,
+                        "a finite angle",
+                    ));
+                }
+            }
+        }
         if self.base_stations.is_empty() {
             return Err(FIELDS.invalid("base_stations", "[]", "at least one base station"));
         }

@@ -208,6 +208,25 @@ pub struct MeshSpec {
     pub yaw_deg: f32,
 }
 
+impl MeshSpec {
+    /// [`SceneSpecError::NotFinite`] naming `offset` or `yaw_deg` of object `index` when not
+    /// finite.
+    pub fn check_placement(&self, index: usize) -> Result<(), SceneSpecError> {
+        let bad = |field, value| SceneSpecError::NotFinite {
+            index,
+            field,
+            value,
+        };
+        if !self.offset.iter().all(|v| v.is_finite()) {
+            return Err(bad("offset", format!("{:?}", self.offset)));
+        }
+        if !self.yaw_deg.is_finite() {
+            return Err(bad("yaw_deg", format!("{}", self.yaw_deg)));
+        }
+        Ok(())
+    }
+}
+
 fn is_zero(v: &f32) -> bool {
     *v == 0.0
 }
@@ -286,6 +305,16 @@ pub enum SceneSpecError {
         name: String,
         /// What a name must be ([`crate::io::guard::check_name_component`]).
         expected: &'static str,
+    },
+    /// A mesh object's placement is not finite.
+    #[error("scene.objects[{index}].{field}: {value} is not finite")]
+    NotFinite {
+        /// Index in `scene.objects`.
+        index: usize,
+        /// `offset` or `yaw_deg`.
+        field: &'static str,
+        /// The value as written.
+        value: String,
     },
     /// A mesh file could not be loaded.
     #[error("scene.objects[{index}] (mesh): {source}")]
@@ -428,19 +457,8 @@ impl SceneSpec {
                 .map_err(shape_err)?],
                 ObjectSpec::Mesh(m) => {
                     let mesh_err = |source| SceneSpecError::Mesh { index, source };
+                    m.check_placement(index)?;
                     let offset = Vec3::from_array(m.offset);
-                    if !offset.is_finite() {
-                        return Err(mesh_err(MeshIoError::BadData {
-                            path: m.path.clone(),
-                            msg: format!("offset {:?} is not finite", m.offset),
-                        }));
-                    }
-                    if !m.yaw_deg.is_finite() {
-                        return Err(mesh_err(MeshIoError::BadData {
-                            path: m.path.clone(),
-                            msg: format!("yaw_deg {} is not finite", m.yaw_deg),
-                        }));
-                    }
                     let path = self.base_dir.join(&m.path);
                     let mut objs = io::load_objects(&path, m.material).map_err(mesh_err)?;
                     let single = objs.len() == 1;
