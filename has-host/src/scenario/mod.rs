@@ -753,13 +753,14 @@ impl Scenario {
         }
         for (i, o) in self.scene.objects.iter().enumerate() {
             if let ObjectSpec::Mesh(m) = o {
-                FIELDS.finite(format!("scene.objects[{i}].offset"), m.offset)?;
-                if !m.yaw_deg.is_finite() {
-                    return Err(FIELDS.invalid(
-                        format!("scene.objects[{i}].yaw_deg"),
-                        m.yaw_deg,
-                        "a finite angle",
-                    ));
+                if let Err(SceneSpecError::NotFinite {
+                    index,
+                    field,
+                    value,
+                }) = m.check_placement(i)
+                {
+                    let field = format!("scene.objects[{index}].{field}");
+                    return Err(FIELDS.invalid(field, value, "finite"));
                 }
             }
         }

@@ -5,10 +5,9 @@
 //! [`Scenario::turned`] turns everything placed in the plane by an angle, counter-clockwise seen
 //! from above, about the vertical axis through a point (x, y): building centres and yaws,
 //! cylinder centres, mesh objects (their `yaw_deg` and `offset`), base-station positions and
-//! boresights, the terminals' tracks, the imaging
-//! region (its rectangle becomes a `region_polygon`, its bounding box the new
-//! `region_min`/`region_max`; a polygon turns vertex by vertex), the `[channel]` base station and
-//! the `[localize]` base station and track. Heights do not change. Two things cannot turn and
+//! boresights, the terminals' tracks, the imaging region (its rectangle becomes a
+//! `region_polygon`, its bounding box the new `region_min`/`region_max`; a polygon turns vertex
+//! by vertex), the `[channel]` base station and the `[localize]` base station and track. Heights do not change. Two things cannot turn and
 //! are kept or refused:
 //! - a ground rectangle is axis-aligned in the file format: it stays as it is; where the grounds
 //!   covered every corner of the imaging region before the turn, a turned corner no ground covers
@@ -113,8 +112,7 @@ impl Scenario {
                 ObjectSpec::Mesh(m) => {
                     // v ↦ R(θ)(R(yaw)v + offset − about) + about: the yaw grows by θ, the
                     // offset turns like a position.
-                    let [x, y] = t.f32_2([m.offset[0], m.offset[1]]);
-                    m.offset = [x, y, m.offset[2]];
+                    m.offset = t.f32_3(m.offset);
                     m.yaw_deg = t.azimuth(m.yaw_deg as f64) as f32;
                 }
             }
