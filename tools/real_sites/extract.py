@@ -580,19 +580,10 @@ class Site:
         VC = []
         for j, i in zip(jj[sel], ii[sel]):
             x, y = g.xy(i, j)
-            gr = np.array([gx[j, i], gy[j, i]])
-            if np.linalg.norm(gr) < 1e-6:
+            track = self.street_track(i, j, gx, gy, 1.5, 7, 2.0)
+            if track is None:
                 continue
-            dvec = np.array([-gr[1], gr[0]]) / np.linalg.norm(gr)  # along the street
-            ends = [np.array([x, y]) + s * 1.5 * dvec for s in np.linspace(-1, 1, 7)]
-            ok = True
-            for e in ends:
-                ei, ej = g.ij(e[0], e[1])
-                if not (0 <= ei < g.nx and 0 <= ej < g.ny) or self.dist_b[ej, ei] < 2.0:
-                    ok = False
-                    break
-            if not ok:
-                continue
+            dvec, _ = track
             gz = self.terrain_z[j, i]
             # keep the track horizontal: both ends at the centre's ground + 1.5 m
             VC.append((x, y, gz + 1.5, dvec[0], dvec[1]))
@@ -696,6 +687,23 @@ class Site:
         self.los = out
         return out
 
+    def street_track(self, i, j, gx, gy, half, n, clearance):
+        """A straight track through raster cell (i, j) along the street (across the gradient of
+        the distance to the buildings), `half` metres each way, sampled at `n` points that all keep
+        `clearance` metres from every building: (direction, points), or None."""
+        g = self.grid
+        gr = np.array([gx[j, i], gy[j, i]])
+        if np.linalg.norm(gr) < 1e-6:
+            return None
+        d = np.array([-gr[1], gr[0]]) / np.linalg.norm(gr)
+        x, y = g.xy(i, j)
+        pts = [np.array([x, y]) + s * half * d for s in np.linspace(-1, 1, n)]
+        for e in pts:
+            ei, ej = g.ij(e[0], e[1])
+            if not (0 <= ei < g.nx and 0 <= ej < g.ny) or self.dist_b[ej, ei] < clearance:
+                return None
+        return d, pts
+
     def place_target_track(self):
         """The moving target of `has-sim localize` (flat sites): a 20 m straight track on a street
         near the group, in line of sight of a base station (the monostatic sensing BS: BS1, else
@@ -719,19 +727,10 @@ class Site:
         for k in order[::7]:
             j, i = jj[k], ii[k]
             x, y = g.xy(i, j)
-            gr = np.array([gx[j, i], gy[j, i]])
-            if np.linalg.norm(gr) < 1e-6:
+            track = self.street_track(i, j, gx, gy, half, 21, 4.0)
+            if track is None:
                 continue
-            d = np.array([-gr[1], gr[0]]) / np.linalg.norm(gr)
-            pts = [np.array([x, y]) + s * half * d for s in np.linspace(-1, 1, 21)]
-            ok = True
-            for e in pts:
-                ei, ej = g.ij(e[0], e[1])
-                if not (0 <= ei < g.nx and 0 <= ej < g.ny) or self.dist_b[ej, ei] < 4.0:
-                    ok = False
-                    break
-            if not ok:
-                continue
+            _, pts = track
             rng_h = [np.hypot(*(e - bs[:2])) for e in pts]
             if min(rng_h) < 20.0 or max(rng_h) > 50.0:
                 continue
