@@ -59,6 +59,17 @@
 //! unimaged stretch, met the far part and took them for another building's face (held-out
 //! cyl_94, quick: walls 6 m inside a sawtooth block).
 //!
+//! **An edge is a line, not a pillar.** An edge column's wall stands where the edge continues
+//! past it: a neighbouring lattice column is an edge too, or another edge column facing the same
+//! way (within 45°) stands within half a support distance. A roof imaged sparsely (a sample or
+//! two per square metre, its edge columns two or three lattice cells apart) has few edge columns
+//! that touch on the lattice, and which touch depends on how the rim falls on it, so with the
+//! lattice alone a wall stood or not as the site was turned. Edges near each other that face
+//! different ways are not one edge: over a courtyard, stray roof-height samples are edges facing
+//! every way, and joined by distance alone they stood a wall inside the yard. Half a support
+//! distance is a quarter of the coarsest resolution cell: a gap that narrow between two samples
+//! of a rim is a gap of its image, not of the building.
+//!
 //! **A notch in a roof's image is not the wall's line.** A roof is detected in part, and a
 //! stretch of its rim narrower than a resolution cell can go undetected while the rim on both
 //! sides of it was imaged; the edge columns in that notch stood their wall up to a resolution
@@ -317,6 +328,11 @@ pub const EDGE_AZIMUTHS: usize = 32;
 /// reverse of the ray (the cosine).
 pub const FACE_BACK_MIN_COS: f32 = std::f32::consts::FRAC_1_SQRT_2;
 
+/// Two roof-edge columns face the same way when their facings are within 45° (the cosine): a
+/// straight edge's open sector is a quarter of the horizon, and its middle, the facing, moves by
+/// up to half of that where the edge runs askew to the lattice.
+pub const SAME_EDGE_MIN_COS: f32 = std::f32::consts::FRAC_1_SQRT_2;
+
 /// Smallest open sector of the horizon that makes a roof column an edge, degrees. Seen from one
 /// of its columns through the lattice of columns, a straight edge opens a quarter of the horizon
 /// (the rays within 45° of its line cross its neighbouring columns, which hold roof), less where
@@ -331,7 +347,9 @@ pub const EDGE_MIN_OPEN_DEG: f32 = 45.0;
 /// above the roof's height as far as it reaches: beyond an edge is the open ground the wall
 /// stands on. Under it, from a cell below the roof down to the first lower sample of the
 /// column or of its neighbours or to `floor`, samples every `cell_m` facing the middle of the
-/// open sector, with the roof sample's weight — where a neighbouring column is an edge too.
+/// open sector, with the roof sample's weight — where the edge continues: a neighbouring column
+/// is an edge too, or an edge column facing within 45° of the same way stands within half a
+/// support distance (module docs).
 /// A hole in a roof (a part no pair detected) has roof on its far side and is no edge; nor is a
 /// roof inside a building whose walls were imaged, nor one that faces another building — unless
 /// what a look meets first lies more than a resolution cell (two `front_m`) away and within a
@@ -490,11 +508,27 @@ pub fn roof_edge_walls(
             (hi >= lo).then_some((k, (top, facing, hi, lo)))
         })
         .collect();
-    // A column carries its wall where a neighbouring column carries one too; a carrying column
-    // in a notch of the rim's image stands its wall on the rim's line (module docs).
+    // A column carries its wall where its edge continues: a neighbouring lattice column is an
+    // edge too, or another edge facing the same way (within 45°) stands within half a support
+    // distance (module docs); a carrying column in a notch of the rim's image stands its wall on
+    // the rim's line.
+    let reach = (0.5 * front_m / cell_m).ceil() as i64;
+    let continues = |k: (i64, i64), top: usize, n: Vec3| {
+        let (p, n) = (points[top], n.truncate());
+        let same_edge = |c: (i64, i64)| {
+            spans.get(&c).is_some_and(|&(other, m, ..)| {
+                (points[other] - p).truncate().length() <= 0.5 * front_m
+                    && m.truncate().dot(n) >= SAME_EDGE_MIN_COS
+            })
+        };
+        neighbours(k).any(|c| c != k && spans.contains_key(&c))
+            || (-reach..=reach)
+                .flat_map(|dx| (-reach..=reach).map(move |dy| (k.0 + dx, k.1 + dy)))
+                .any(|c| c != k && same_edge(c))
+    };
     let carrying: BTreeMap<(i64, i64), (usize, Vec3, f32, f32)> = spans
         .iter()
-        .filter(|(k, _)| neighbours(**k).any(|c| c != **k && spans.contains_key(&c)))
+        .filter(|(&k, &(top, n, ..))| continues(k, top, n))
         .map(|(k, v)| (*k, *v))
         .collect();
     for (&k, &(top, n, hi, lo)) in &carrying {
@@ -818,6 +852,31 @@ mod tests {
         assert!(c.weights.iter().all(|&w| w == 0.7));
         let (zmin, _) = z_range(&c);
         assert!((zmin - 0.5).abs() < 1e-4, "{zmin}");
+    }
+
+    #[test]
+    fn a_sparsely_imaged_roof_stands_on_its_walls_and_two_lone_samples_facing_apart_do_not() {
+        // Roof samples every metre, two lattice cells apart: no edge column has an edge column
+        // among its lattice neighbours, but each has one along its rim within half a support
+        // distance (1 m), facing the same way.
+        let p: Vec<Vec3> = (0..=10)
+            .flat_map(|i| (0..=10).map(move |j| Vec3::new(0.25 + i as f32, 0.25 + j as f32, 10.0)))
+            .collect();
+        let c = edges(&p, Some(0.5));
+        let centre = Vec3::new(5.25, 5.25, 0.0);
+        let on_rim = |q: &Vec3| {
+            let r = *q - centre;
+            r.x.abs().max(r.y.abs()) > 4.4
+        };
+        for side in [Vec3::X, Vec3::NEG_X, Vec3::Y, Vec3::NEG_Y] {
+            let under = c.normals.iter().filter(|n| n.dot(side) > 0.9).count();
+            assert!(under >= 7 * 19, "{under} samples facing {side}");
+        }
+        assert!(c.points.iter().all(on_rim), "a wall stood inside");
+        // Two lone roof samples a metre apart: each is an edge facing away from the other, and
+        // a wall is a surface, not two pillars back to back.
+        let lone = [Vec3::new(0.25, 0.25, 10.0), Vec3::new(1.25, 0.25, 10.0)];
+        assert_eq!(edges(&lone, Some(0.5)).columns, 0);
     }
 
     #[test]
