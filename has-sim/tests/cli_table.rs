@@ -206,6 +206,14 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
             "coarse_voxel_m = 1.0\nsmear_centroid = \"yes\"",
         ),
     );
+    let bad_clutter = write(
+        "bad_clutter.toml",
+        &edit(
+            &factory,
+            "coarse_voxel_m = 1.0",
+            "coarse_voxel_m = 1.0\nground_clutter = \"rough\"",
+        ),
+    );
     let panels = write(
         "panels.toml",
         &edit(
@@ -492,6 +500,18 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
             "smear_centroid = \"yes\"",
         )
         .absent(&[&out("bad_bool/report.json")]),
+        row(
+            "a ground clutter model that does not exist",
+            &[
+                "reconstruct",
+                s(&bad_clutter),
+                "--out",
+                s(&out("bad_clutter")),
+            ],
+            1,
+            "ground_clutter = \"rough\"",
+        )
+        .absent(&[&out("bad_clutter/report.json")]),
         // The quick preset's estimate, 4.7 GiB, is below MemAvailable on most machines: only
         // the address-space limit refuses it.
         row(

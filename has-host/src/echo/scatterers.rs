@@ -153,6 +153,22 @@ impl ScattererSet {
         })
     }
 
+    /// The same scatterers as patches of developed clutter: each one's area weight (its mean
+    /// echo power) times an independent Exp(1) draw, so its echo's power is exponentially
+    /// distributed about the mean and its amplitude Rayleigh (the sum of a patch's many
+    /// unresolved facets; [`crate::scenario::GroundClutter::Developed`]). One ChaCha8 stream of
+    /// `seed` drawn in the points' order: the same seed gives the same bits whatever the thread
+    /// count.
+    pub fn speckled(mut self, seed: u64) -> Self {
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        for p in &mut self.points {
+            // 1 − u lies in (0, 1], so the draw is finite.
+            let u: f64 = rng.random();
+            p.area_m2 *= (-(1.0 - u).ln()) as f32;
+        }
+        self
+    }
+
     /// Number of scatterers.
     pub fn len(&self) -> usize {
         self.points.len()
@@ -273,5 +289,57 @@ impl VisibilityCache {
     /// How many times the list was (re)computed.
     pub fn recomputes(&self) -> usize {
         self.recomputes
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use glam::Vec2;
+
+    #[test]
+    fn speckled_patches_keep_the_mean_power_with_exponential_spread_and_the_same_bits_per_seed() {
+        let g = crate::shapes::ground(
+            "ground",
+            Material::MediumDryGround,
+            Vec2::splat(-20.0),
+            Vec2::splat(20.0),
+            0.0,
+            (8, 8),
+        )
+        .unwrap();
+        let scene = Scene::new(vec![g]).unwrap();
+        let flat = ScattererSet::sample(&scene, 5.0, 3).unwrap();
+        let speckled = flat.clone().speckled(9);
+        assert_eq!(speckled, flat.clone().speckled(9));
+        assert_ne!(speckled, flat.clone().speckled(10));
+        let n = flat.len() as f64;
+        assert!(n > 7000.0, "{n}");
+        // Positions unchanged; power ratios Exp(1): mean 1 and P(ratio > 1) = 1/e, each within
+        // five standard errors of its estimate over n draws.
+        let ratios: Vec<f64> = flat
+            .points
+            .iter()
+            .zip(&speckled.points)
+            .map(|(a, b)| {
+                assert_eq!(a.pos, b.pos);
+                b.area_m2 as f64 / a.area_m2 as f64
+            })
+            .collect();
+        let mean = ratios.iter().sum::<f64>() / n;
+        assert!((mean - 1.0).abs() < 5.0 / n.sqrt(), "mean {mean}");
+        let above = ratios.iter().filter(|&&r| r > 1.0).count() as f64 / n;
+        let e = (-1.0f64).exp();
+        assert!(
+            (above - e).abs() < 5.0 * (e * (1.0 - e) / n).sqrt(),
+            "{above}"
+        );
+        // The deep fades a Rayleigh amplitude has: P(ratio < 0.1) = 1 − e^−0.1.
+        let faded = ratios.iter().filter(|&&r| r < 0.1).count() as f64 / n;
+        let f = 1.0 - (-0.1f64).exp();
+        assert!(
+            (faded - f).abs() < 5.0 * (f * (1.0 - f) / n).sqrt(),
+            "{faded}"
+        );
     }
 }

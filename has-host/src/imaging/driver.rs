@@ -208,7 +208,7 @@ fn pair_geometry(sc: &Scenario, plan: &PairPlan) -> PairGeometry {
     let aperture = sc.aperture(plan.aperture, plan.positions);
     let (lo, hi) = sc.region();
     let (r_res, xv_res, _, xz_res) = pair_resolution_m(
-        (lo + hi) * 0.5,
+        sc.region_centre(),
         &array,
         &aperture,
         sc.wavelength_m() as f32,
@@ -631,7 +631,7 @@ pub(crate) fn region_guard_m(sc: &Scenario, plan: &PairPlan) -> f32 {
     let (lo, hi) = sc.region();
     let side = (hi.x - lo.x).max(hi.y - lo.y).max(0.0);
     let (r, _, xh, _) = pair_resolution_m(
-        (lo + hi) * 0.5,
+        sc.region_centre(),
         &sc.array(plan.bs),
         &sc.aperture(plan.aperture, plan.positions),
         sc.wavelength_m() as f32,

@@ -34,7 +34,7 @@ use super::facing::own_surface_normals;
 use super::finer_height::placed_finer;
 use super::terrain_echo::{terrain_echoes, TerrainLayer};
 use super::world::{Terrain, World};
-use crate::scenario::{Pairing, Scenario};
+use crate::scenario::{GroundClutter, Pairing, Scenario};
 use crate::sensors::{nyquist_spacing_m, pair_resolution_m, vertical_extent_m};
 use rayon::prelude::*;
 
@@ -283,13 +283,16 @@ pub fn build_world(sc: &Scenario) -> Result<World, RunError> {
     )
     .map_err(named("imaging.scatterer_density_per_m2"))?;
     let ig = is_ground.clone();
-    let ground = ScattererSet::sample_where(
+    let mut ground = ScattererSet::sample_where(
         &scene,
-        sc.imaging.ground_density_per_m2,
+        sc.ground_density_per_m2()?,
         sc.imaging.seed.wrapping_add(1),
         |o, p| ig[o as usize] && sc.scatters_as_ground(p),
     )
     .map_err(named("imaging.ground_density_per_m2"))?;
+    if sc.imaging.ground_clutter == GroundClutter::Developed {
+        ground = ground.speckled(sc.imaging.seed ^ GROUND_SPECKLE_SEED);
+    }
     set.points.extend(ground.points);
     let terrain = terrain_model(sc, &scene, &is_ground)?;
     let truth_triangles: Vec<[Vec3; 3]> = scene
@@ -321,6 +324,8 @@ pub fn build_world(sc: &Scenario) -> Result<World, RunError> {
 /// Seed offset of the terrain model's scatterers: a realisation independent of the true ground's
 /// (`seed + 1`), so the model knows the terrain's statistics, not its echoes.
 const TERRAIN_MODEL_SEED: u64 = 0x7E22_A1D0_5EED_0001;
+/// Mixed into the scenario's seed for the developed ground's speckle draws.
+const GROUND_SPECKLE_SEED: u64 = 0x5BEC_C1E0_5EED_0002;
 
 /// The known terrain (module [`World::terrain`]).
 fn terrain_model(sc: &Scenario, scene: &Scene, is_ground: &[bool]) -> Result<Terrain, RunError> {
@@ -342,9 +347,10 @@ fn terrain_model(sc: &Scenario, scene: &Scene, is_ground: &[bool]) -> Result<Ter
         });
     }
     let tscene = Scene::new(ground).map_err(crate::scenario::SceneSpecError::from)?;
+    // The model is the ground's mean echo: developed clutter's patches at their mean power.
     let scatterers = ScattererSet::sample_where(
         &tscene,
-        sc.imaging.ground_density_per_m2,
+        sc.ground_density_per_m2()?,
         sc.imaging.seed ^ TERRAIN_MODEL_SEED,
         |_, p| sc.scatters_as_ground(p),
     )?;
@@ -510,9 +516,8 @@ pub fn survey_pairs(sc: &Scenario, world: &World) -> Result<Vec<PairPlan>, RunEr
 /// smears every echo across the site, and its cell would set the support distance of every
 /// other pair's points ([`support_distance_m`]).
 pub fn resolves_the_site(sc: &Scenario, bs: usize, ai: usize) -> bool {
-    let (lo, hi) = sc.region();
     let (r, xv, _xh, xz) = pair_resolution_m(
-        (lo + hi) * 0.5,
+        sc.region_centre(),
         &sc.array(bs),
         &sc.aperture(ai, default_positions(sc, ai)),
         sc.wavelength_m() as f32,
@@ -524,8 +529,7 @@ pub fn resolves_the_site(sc: &Scenario, bs: usize, ai: usize) -> bool {
 /// Per aperture, the base stations whose panel faces the region's centre, each with the pair's
 /// resolution cell there ([`resolution_cell_m`]), in base-station order.
 pub fn facing_base_stations(sc: &Scenario) -> Vec<Vec<(usize, f32)>> {
-    let (lo, hi) = sc.region();
-    let centre = (lo + hi) * 0.5;
+    let centre = sc.region_centre();
     (0..sc.apertures.len())
         .map(|ai| {
             (0..sc.base_stations.len())
@@ -634,8 +638,7 @@ impl FusedCloud {
 
 /// Fuses the pairs' clouds (module docs).
 pub fn fuse(sc: &Scenario, plans: &[PairPlan], images: &[PairImage], voxel_m: f32) -> FusedCloud {
-    let (lo, hi) = sc.region();
-    let centre = (lo + hi) * 0.5;
+    let centre = sc.region_centre();
     let cells: Vec<f32> = plans
         .iter()
         .map(|p| resolution_cell_m(sc, p.bs, p.aperture, p.positions, centre))
@@ -1010,8 +1013,7 @@ pub fn observable_truth(sc: &Scenario, world: &World, plans: &[PairPlan]) -> Vec
 /// from every point is the mesher's extrapolation (e.g. a Poisson surface closing an open cloud
 /// across a site).
 pub fn support_distance_m(sc: &Scenario, plans: &[PairPlan]) -> f32 {
-    let (lo, hi) = sc.region();
-    let centre = (lo + hi) * 0.5;
+    let centre = sc.region_centre();
     plans
         .iter()
         .map(|p| {
@@ -1205,9 +1207,24 @@ mod tests {
         assert_eq!(pairs.len(), site.apertures.len());
         // The whole site turned by 37° (sensors and region with it): the same pairs.
         assert_eq!(named(&turned), pairs);
+        // A real site's polygon region, turned by a non-right angle: the same pairs (the
+        // centre each pair is judged at turns with the site; its region's box does not).
+        let real = load(include_str!("../../../fixtures/real/sf_element_2172.toml"));
+        let real_turned = real
+            .turned(
+                37.0,
+                real.region_footprint_centre() + glam::Vec2::new(0.33, -0.55),
+            )
+            .expect("turned");
+        let every = |sc: &Scenario| -> Vec<String> {
+            let plans = every_facing_pair(sc).expect("pairs");
+            plans.into_iter().map(|p| p.name).collect()
+        };
+        assert_eq!(named(&real_turned), named(&real));
+        assert_eq!(every(&real_turned), every(&real));
+        assert!(every(&real).len() > 20);
         // Each aperture's base station has the finest cell among those facing the centre.
-        let (lo, hi) = site.region();
-        let centre = (lo + hi) * 0.5;
+        let centre = site.region_centre();
         for p in plan_pairs(&site).expect("pairs") {
             let cell = |bs| resolution_cell_m(&site, bs, p.aperture, p.positions, centre);
             for bs in 0..site.base_stations.len() {
@@ -1243,8 +1260,7 @@ mod tests {
             plans.iter().map(|p| p.name.clone()).collect::<Vec<_>>()
         };
         let every = every_facing_pair(&site).expect("pairs");
-        let (lo, hi) = site.region();
-        let centre = (lo + hi) * 0.5;
+        let centre = site.region_centre();
         let faces = |sc: &Scenario, bs: usize| {
             let a = sc.array(bs);
             (centre - a.centre).dot(a.boresight()) > 0.0

@@ -642,10 +642,7 @@ impl Imaged<'_> {
             &world,
             &imaging::every_pairing(sc),
         ));
-        let region_centre = {
-            let (lo, hi) = sc.region();
-            (lo + hi) * 0.5
-        };
+        let region_centre = sc.region_centre();
         let (mut total_bp, mut total_bp_s) = (0.0, 0.0);
         let mut pairs = Vec::with_capacity(result.plans.len());
         for (k, (p, img)) in result.plans.iter().zip(&result.images).enumerate() {

@@ -295,6 +295,10 @@ pub struct ImagingSpec {
     /// How far past the region footprint's farthest corner the ground scatters, metres.
     #[serde(default = "default_ground_margin")]
     pub ground_margin_m: f32,
+    /// What the ground's scatterers stand for ([`GroundClutter`]): by default each is a point
+    /// echo of its area; `"developed"` makes the ground developed clutter.
+    #[serde(default)]
+    pub ground_clutter: GroundClutter,
     /// Objects whose surfaces are the ground truth (the building).
     pub truth_objects: Vec<String>,
     /// Ground-truth samples per m² on the truth objects' surfaces.
@@ -380,6 +384,25 @@ pub enum Backprojection {
     Exact,
     /// Every element, in subarrays beamformed once per snapshot.
     Factorised,
+}
+
+/// What the ground's scatterers stand for (see [`ImagingSpec::ground_clutter`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum GroundClutter {
+    /// Each scatterer echoes as a point reflector of the area it stands for, at
+    /// `ground_density_per_m2`.
+    #[default]
+    Points,
+    /// Developed clutter: the ground is rough on the wavelength's scale, so the echo of each
+    /// patch is the sum of many unresolved facets with random phases, a circular complex
+    /// Gaussian whose power is exponentially distributed about the patch's mean (Rayleigh
+    /// amplitude). Each scatterer stands for such a patch: its power is its area's mean times an
+    /// independent Exp(1) draw, its phase the path's (random across patches at a 3 cm
+    /// wavelength). The patches are at least one per finest resolution cell of the image
+    /// ([`Scenario::ground_density_per_m2`]), so no cell of the ground is empty and every cell's
+    /// echo is Rayleigh whatever the number of patches in it.
+    Developed,
 }
 
 /// How the imaging driver detects surface voxels (see [`ImagingSpec::detection`]).
@@ -1094,9 +1117,34 @@ impl Scenario {
         }
     }
 
+    /// The region's centre, metres: its footprint's vertex mean ([`Scenario::region_footprint_centre`])
+    /// at the middle of its height. It turns with a turned site, where the centre of the region's
+    /// axis-aligned box does not (the box of a turned polygon is another box).
+    pub fn region_centre(&self) -> Vec3 {
+        let (lo, hi) = self.region();
+        self.region_footprint_centre().extend(0.5 * (lo.z + hi.z))
+    }
+
     /// The vertex mean of the region's footprint, metres (xy).
     pub fn region_footprint_centre(&self) -> glam::Vec2 {
         vertex_mean(&self.region_footprint())
+    }
+
+    /// Scatterers per m² on the ground: `ground_density_per_m2`, and with
+    /// [`GroundClutter::Developed`] at least one per finest resolution cell of the image, the
+    /// finest range resolution ([`Scenario::range_resolution_m`]) by the voxel (a finer
+    /// cross-range cell is sampled by the voxel lattice, not resolved by it).
+    ///
+    /// # Errors
+    /// As [`Scenario::range_resolution_m`].
+    pub fn ground_density_per_m2(&self) -> Result<f64, ScenarioError> {
+        let im = &self.imaging;
+        Ok(match im.ground_clutter {
+            GroundClutter::Points => im.ground_density_per_m2,
+            GroundClutter::Developed => im
+                .ground_density_per_m2
+                .max(1.0 / (self.range_resolution_m()? * im.voxel_m as f64)),
+        })
     }
 
     /// Whether a ground point at `p` scatters in the simulated world: inside the disc centred on
@@ -1389,6 +1437,29 @@ mod tests {
             let e = sc.scene.build_objects().unwrap_err().to_string();
             assert!(e.starts_with("scene.objects[0].name:"), "{e}");
         }
+    }
+
+    #[test]
+    fn developed_ground_holds_a_patch_per_resolution_cell_and_is_its_own_digest() {
+        let mut sc = factory();
+        sc.imaging.ground_density_per_m2 = 2.0;
+        assert_eq!(sc.ground_density_per_m2().unwrap(), 2.0);
+        let d = sc.digest().unwrap();
+        sc.imaging.ground_clutter = GroundClutter::Developed;
+        // 400 MHz: c/(2B) = 0.375 m; a 0.25 m voxel: 10.7 patches per m².
+        let (dr, v) = (sc.range_resolution_m().unwrap(), sc.imaging.voxel_m as f64);
+        assert!((dr - 0.375).abs() < 1e-3 && v == 0.25, "{dr} {v}");
+        let rho = sc.ground_density_per_m2().unwrap();
+        assert!((rho * dr * v - 1.0).abs() < 1e-12, "{rho}");
+        assert_ne!(sc.digest().unwrap(), d);
+        // A density already finer than the cell is kept.
+        sc.imaging.ground_density_per_m2 = 40.0;
+        assert_eq!(sc.ground_density_per_m2().unwrap(), 40.0);
+        // Spelled in the TOML as documented.
+        let toml = include_str!("../../../fixtures/factory.toml")
+            .replace("[imaging]\n", "[imaging]\nground_clutter = \"developed\"\n");
+        let parsed = Scenario::from_toml_str(&toml).unwrap();
+        assert_eq!(parsed.imaging.ground_clutter, GroundClutter::Developed);
     }
 
     #[test]
