@@ -370,7 +370,7 @@ pub fn default_positions(sc: &Scenario, ai: usize) -> usize {
     let dir = (ap.end - ap.start).normalize_or_zero();
     let c = ap.centre();
     // The widest angle under which the track sees the region: over the footprint's vertices,
-    // edge midpoints and vertex mean, at the region's floor, middle and top — the region itself,
+    // edge midpoints and centre, at the region's floor, middle and top — the region itself,
     // not its axis-aligned box (which a turned site's region fills only in part: the box gave
     // the UAV track of the factory site turned by 37° 191 positions against the unturned site's
     // 172). For a box region these are the 27 points of the box (corners, edge and face centres,

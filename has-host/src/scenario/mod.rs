@@ -509,10 +509,30 @@ fn default_vis_shift() -> f32 {
     0.5
 }
 /// The mean of a polygon's vertices (the origin for none).
-fn vertex_mean(poly: &[[f32; 2]]) -> glam::Vec2 {
-    poly.iter()
-        .fold(glam::Vec2::ZERO, |a, v| a + glam::Vec2::from(*v))
-        / poly.len().max(1) as f32
+/// The area centroid of a simple polygon (shoelace formula, in f64 about its first vertex); the
+/// vertex mean where the polygon encloses no area. Unlike the vertex mean it does not lean toward
+/// where the outline was drawn with more vertices.
+fn area_centroid(poly: &[[f32; 2]]) -> glam::Vec2 {
+    let Some(&[x0, y0]) = poly.first() else {
+        return glam::Vec2::ZERO;
+    };
+    let (mut a2, mut cx, mut cy) = (0.0f64, 0.0f64, 0.0f64);
+    for (p, q) in poly.iter().zip(poly.iter().cycle().skip(1)) {
+        let (px, py) = ((p[0] - x0) as f64, (p[1] - y0) as f64);
+        let (qx, qy) = ((q[0] - x0) as f64, (q[1] - y0) as f64);
+        let c = px * qy - qx * py;
+        a2 += c;
+        cx += (px + qx) * c;
+        cy += (py + qy) * c;
+    }
+    if a2.abs() <= f64::EPSILON * poly.len() as f64 {
+        let n = poly.len() as f32;
+        return poly
+            .iter()
+            .fold(glam::Vec2::ZERO, |a, v| a + glam::Vec2::from(*v))
+            / n;
+    }
+    glam::Vec2::new(x0 + (cx / (3.0 * a2)) as f32, y0 + (cy / (3.0 * a2)) as f32)
 }
 fn default_cross_pair_denials() -> u8 {
     2
@@ -1117,17 +1137,24 @@ impl Scenario {
         }
     }
 
-    /// The region's centre, metres: its footprint's vertex mean ([`Scenario::region_footprint_centre`])
-    /// at the middle of its height. It turns with a turned site, where the centre of the region's
+    /// The region's centre, metres: its footprint's area centroid
+    /// ([`Scenario::region_footprint_centre`]) at the middle of its height. It turns with a turned site, where the centre of the region's
     /// axis-aligned box does not (the box of a turned polygon is another box).
     pub fn region_centre(&self) -> Vec3 {
         let (lo, hi) = self.region();
         self.region_footprint_centre().extend(0.5 * (lo.z + hi.z))
     }
 
-    /// The vertex mean of the region's footprint, metres (xy).
+    /// The area centroid of the region's footprint, metres (xy): the box's centre for a box
+    /// region.
     pub fn region_footprint_centre(&self) -> glam::Vec2 {
-        vertex_mean(&self.region_footprint())
+        match &self.imaging.region_polygon {
+            Some(poly) => area_centroid(poly),
+            None => {
+                let (lo, hi) = self.region();
+                (0.5 * (lo + hi)).truncate()
+            }
+        }
     }
 
     /// Scatterers per m² on the ground: `ground_density_per_m2`, and with
@@ -1148,14 +1175,14 @@ impl Scenario {
     }
 
     /// Whether a ground point at `p` scatters in the simulated world: inside the disc centred on
-    /// the region footprint's vertex mean (the polygon's, else the box's four corners) whose
-    /// radius reaches `ground_margin_m` past the farthest vertex. A disc, so that the world's
+    /// the region's footprint centre ([`Scenario::region_footprint_centre`]) whose radius
+    /// reaches `ground_margin_m` past the farthest vertex. A disc, so that the world's
     /// ground is the same whichever way the site and its region are turned (the region's
     /// axis-aligned box grown by the margin held 1.7 × the ground of the unrotated factory site
     /// for the site turned by 37°, and its larger range-bin power hid roof detections).
     pub fn scatters_as_ground(&self, p: Vec3) -> bool {
         let footprint = self.region_footprint();
-        let c = vertex_mean(&footprint);
+        let c = self.region_footprint_centre();
         let r = footprint
             .iter()
             .map(|v| glam::Vec2::from(*v).distance(c))
@@ -1437,6 +1464,33 @@ mod tests {
             let e = sc.scene.build_objects().unwrap_err().to_string();
             assert!(e.starts_with("scene.objects[0].name:"), "{e}");
         }
+    }
+
+    #[test]
+    fn the_region_centre_is_the_footprints_area_centroid_not_its_vertex_mean() {
+        // An L, [0,2]×[0,1] and [0,1]×[1,2]: area 3, centroid
+        // (5/6, 5/6); its east side drawn with many extra vertices moves the vertex mean, not the
+        // centroid.
+        let mut l = vec![[0.0f32, 0.0], [2.0, 0.0]];
+        l.extend((1..10).map(|k| [2.0, k as f32 * 0.1]));
+        l.extend([[2.0, 1.0], [1.0, 1.0], [1.0, 2.0], [0.0, 2.0]]);
+        let c = area_centroid(&l);
+        assert!((c - glam::Vec2::splat(5.0 / 6.0)).length() < 1e-5, "{c}");
+        // Either winding; a polygon with no area falls back to its vertex mean.
+        let rev: Vec<[f32; 2]> = l.iter().rev().copied().collect();
+        assert!((area_centroid(&rev) - c).length() < 1e-5);
+        let flat = [[0.0f32, 0.0], [1.0, 0.0], [3.0, 0.0]];
+        assert!((area_centroid(&flat) - glam::Vec2::new(4.0 / 3.0, 0.0)).length() < 1e-6);
+        // A box region's centre is its box's; a polygon region's, its centroid at mid-height.
+        let mut sc = factory();
+        let (lo, hi) = sc.region();
+        assert_eq!(sc.region_centre(), 0.5 * (lo + hi));
+        sc.imaging.region_polygon = Some(l.iter().map(|v| [v[0] - 10.0, v[1]]).collect());
+        let c = sc.region_centre();
+        assert!(
+            (c.x + 10.0 - 5.0 / 6.0).abs() < 1e-4 && (c.y - 5.0 / 6.0).abs() < 1e-4,
+            "{c}"
+        );
     }
 
     #[test]
