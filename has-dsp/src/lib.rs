@@ -19,6 +19,7 @@
 
 pub mod bp;
 pub mod cfar;
+pub mod direct_path;
 pub mod eca;
 pub mod error;
 #[cfg(test)]

@@ -150,6 +150,31 @@ pub fn rotor_q15_word(w: u32) -> (i16, i16) {
     (x as i16, y as i16)
 }
 
+/// [`rotor_q15_word`] without its last rounding: the interpolation between the table's two steps
+/// kept to [`PHASE_FRAC_BITS`] more bits, as `i32` Q30 `(re, im)` with `1.0 = 2³⁰`. Error
+/// ≤ [`ROTOR_Q30_MAX_ERR_LSB`] Q15 LSB per component (the entries' rounding and the chord's
+/// sag), and **continuous in the phase**: it has no steps of an LSB where the rounding flips,
+/// which an estimator that compares rotated sums a hair apart in phase would see as ripple
+/// ([`crate::direct_path`]). Branch free.
+#[inline(always)]
+pub fn rotor_q30_word(w: u32) -> (i32, i32) {
+    const Q: usize = QUARTER;
+    let k = (w >> PHASE_FRAC_BITS) & (PHASE_STEPS - 1);
+    let f = (w & ((1 << PHASE_FRAC_BITS) - 1)) as i32;
+    let q = k >> QUARTER.trailing_zeros();
+    let r = k as usize & (Q - 1);
+    // Entries ≤ 2¹⁵, shifted by 15: ≤ 2³⁰; (b − a)·f < 26·2¹⁵ (as in rotor_q15_word).
+    let lerp = |a: u16, b: u16| ((a as i32) << PHASE_FRAC_BITS) + (b as i32 - a as i32) * f;
+    let s = lerp(SIN_Q15[r], SIN_Q15[r + 1]);
+    let c = lerp(SIN_Q15[Q - r], SIN_Q15[Q - r - 1]);
+    quarter_turns(q, c, s)
+}
+
+/// Stated bound, in Q15 LSB, on the error of each component of [`rotor_q30_word`] against the
+/// exact `e^{j2πt}`: the entries' [`SIN_Q15_MAX_ERR_LSB`] (a convex combination of two entries
+/// errs no more than they do) plus the chord's sag `(2π/8192)²/8·2¹⁵` = 0.0024 LSB.
+pub const ROTOR_Q30_MAX_ERR_LSB: f64 = 0.503;
+
 /// `(cos, sin)` of `2πk/PHASE_STEPS` in Q15 with `1.0 = 32768` (values in \[−32768, 32768\]),
 /// each within [`SIN_Q15_MAX_ERR_LSB`] of exact; `k` is taken modulo [`PHASE_STEPS`]. Branch free.
 #[inline(always)]
@@ -328,6 +353,34 @@ mod tests {
             worst_nearest > 12.0,
             "nearest step: worst {worst_nearest} LSB"
         );
+    }
+
+    #[test]
+    fn rotor_q30_is_within_its_bound_and_continuous_across_steps() {
+        let mut worst = 0.0f64;
+        for k in 0..PHASE_STEPS {
+            for off in [0.0, 0.33, 0.499, 0.999] {
+                let t = (k as f64 + off) / PHASE_STEPS as f64;
+                let w = (t * (1u64 << 28) as f64) as u32;
+                let (c, s) = exact(w as f64 / (1u64 << 28) as f64);
+                let (re, im) = rotor_q30_word(w);
+                let lsb = (1u32 << 15) as f64;
+                worst = worst
+                    .max((re as f64 / lsb - c * 32768.0).abs())
+                    .max((im as f64 / lsb - s * 32768.0).abs());
+            }
+        }
+        assert!(worst <= ROTOR_Q30_MAX_ERR_LSB, "worst {worst} LSB");
+        // Continuity: one phase word apart the components move by |b − a| ≤ 26 Q30 units
+        // (neighbouring entries differ by < 26 Q15 LSB), across a step boundary as inside one.
+        for k in 1..PHASE_STEPS {
+            let w = k << PHASE_FRAC_BITS;
+            let (a, b) = (rotor_q30_word(w - 1), rotor_q30_word(w));
+            assert!(
+                (a.0 - b.0).abs() <= 26 && (a.1 - b.1).abs() <= 26,
+                "{k}: {a:?} {b:?}"
+            );
+        }
     }
 
     /// The largest spur of a rotor sequence, dB below its carrier: `e^{j2π m n/N}` for
