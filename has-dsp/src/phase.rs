@@ -132,22 +132,31 @@ pub fn phase_word(t: f32) -> u32 {
 /// Error ≤ [`ROTOR_Q15_MAX_ERR_LSB`] per component (module docs). Branch free.
 #[inline(always)]
 pub fn rotor_q15_word(w: u32) -> (i16, i16) {
+    // Rounding the Q30 interpolation by 15 bits is `a + round((b − a)·f / 2¹⁵)`: `a·2¹⁵` is a
+    // multiple of 2¹⁵.
+    let (q, c, s) = quarter_q30(w);
+    let q15 = |v: i32| ((v + (1 << (PHASE_FRAC_BITS - 1))) >> PHASE_FRAC_BITS).min(32767);
+    let (x, y) = quarter_turns(q, q15(c), q15(s));
+    (x as i16, y as i16)
+}
+
+/// Phase word `w`'s quarter turn and, within it, the cosine and sine interpolated linearly
+/// between the table's two steps around it, unrounded: Q30 (entries ≤ 2¹⁵ shifted by
+/// [`PHASE_FRAC_BITS`]: ≤ 2³⁰; neighbouring entries differ by ≤ 2¹⁵·2π/8192 < 26, so
+/// `(b − a)·f < 26·2¹⁵`). The table has `QUARTER + 1` entries, so both steps exist.
+#[inline(always)]
+fn quarter_q30(w: u32) -> (u32, i32, i32) {
     const Q: usize = QUARTER;
     let k = (w >> PHASE_FRAC_BITS) & (PHASE_STEPS - 1);
     let f = (w & ((1 << PHASE_FRAC_BITS) - 1)) as i32;
     let q = k >> QUARTER.trailing_zeros();
     let r = k as usize & (Q - 1);
-    // Within the quarter, between steps r and r + 1 (the table has QUARTER + 1 entries, so both
-    // exist), on the unsigned entries; neighbours differ by ≤ 2¹⁵·2π/8192 < 26, so
-    // (b − a)·f < 26·2¹⁵ fits i32.
-    let lerp = |a: u16, b: u16| {
-        let (a, b) = (a as i32, b as i32);
-        a + (((b - a) * f + (1 << (PHASE_FRAC_BITS - 1))) >> PHASE_FRAC_BITS)
-    };
-    let s = lerp(SIN_Q15[r], SIN_Q15[r + 1]).min(32767);
-    let c = lerp(SIN_Q15[Q - r], SIN_Q15[Q - r - 1]).min(32767);
-    let (x, y) = quarter_turns(q, c, s);
-    (x as i16, y as i16)
+    let lerp = |a: u16, b: u16| ((a as i32) << PHASE_FRAC_BITS) + (b as i32 - a as i32) * f;
+    (
+        q,
+        lerp(SIN_Q15[Q - r], SIN_Q15[Q - r - 1]),
+        lerp(SIN_Q15[r], SIN_Q15[r + 1]),
+    )
 }
 
 /// [`rotor_q15_word`] without its last rounding: the interpolation between the table's two steps
@@ -158,15 +167,7 @@ pub fn rotor_q15_word(w: u32) -> (i16, i16) {
 /// ([`crate::direct_path`]). Branch free.
 #[inline(always)]
 pub fn rotor_q30_word(w: u32) -> (i32, i32) {
-    const Q: usize = QUARTER;
-    let k = (w >> PHASE_FRAC_BITS) & (PHASE_STEPS - 1);
-    let f = (w & ((1 << PHASE_FRAC_BITS) - 1)) as i32;
-    let q = k >> QUARTER.trailing_zeros();
-    let r = k as usize & (Q - 1);
-    // Entries ≤ 2¹⁵, shifted by 15: ≤ 2³⁰; (b − a)·f < 26·2¹⁵ (as in rotor_q15_word).
-    let lerp = |a: u16, b: u16| ((a as i32) << PHASE_FRAC_BITS) + (b as i32 - a as i32) * f;
-    let s = lerp(SIN_Q15[r], SIN_Q15[r + 1]);
-    let c = lerp(SIN_Q15[Q - r], SIN_Q15[Q - r - 1]);
+    let (q, c, s) = quarter_q30(w);
     quarter_turns(q, c, s)
 }
 
