@@ -5,12 +5,13 @@
 //!
 //! Mechanisms and why:
 //! - **Partition** (a simplified kinetic partition, after Bauchet & Lafarge 2020): the site's box
-//!   is cut by [`SplitLine`]s — the traces of wall planes on the ground and the lines where two
-//!   roof planes meet. A line cuts only the cells its segment, prolonged by
-//!   [`EXTEND_VOXELS`] voxels at each end, passes through: a facade is imaged over part of its
-//!   length (the rest occluded or outside every pair's view), so its line must reach past what
-//!   was seen, but an infinite line would cut every building of the site. Each cut splits a
-//!   convex cell into two convex cells, so every cell stays convex.
+//!   is cut by [`SplitLine`]s — the traces of wall planes on the ground, the lines where two
+//!   roof planes meet, and the lines where roof evidence ends ([`super::evidence_edges`]). A
+//!   line cuts only the cells its segment, prolonged by its `reach_m` at each end, passes
+//!   through: a facade is imaged over part of its length (the rest occluded or outside every
+//!   pair's view), so a wall's or a meet line's reaches [`EXTEND_VOXELS`] voxels past what was
+//!   seen, but an infinite line would cut every building of the site. Each cut splits a convex
+//!   cell into two convex cells, so every cell stays convex.
 //! - **Conforming vertices**: cut points computed from the two sides of an edge are welded
 //!   within [`WELD_M`], and a vertex lying on another cell's edge is inserted into that edge,
 //!   so neighbouring cells share every edge exactly (the solid's walls need it).
@@ -30,6 +31,8 @@
 use std::collections::HashMap;
 
 use glam::DVec2;
+
+use super::max_flow::FlowGraph;
 
 /// A wall trace is prolonged by this many voxels past its seen extent at each end.
 pub const EXTEND_VOXELS: f64 = 10.0;
@@ -57,7 +60,7 @@ pub struct LabelTerms {
 
 /// Share of the edge a–b lying on some wall trace (within `terms.wall_distance_m` of the line
 /// and within its seen extent prolonged by `terms.wall_reach_m`), 0–1.
-fn wall_support(a: DVec2, b: DVec2, walls: &[SplitLine], terms: &LabelTerms) -> f64 {
+pub(crate) fn wall_support(a: DVec2, b: DVec2, walls: &[SplitLine], terms: &LabelTerms) -> f64 {
     let len = a.distance(b);
     if len <= 0.0 {
         return 1.0;
@@ -116,85 +119,6 @@ fn min_cut_labels(
     (0..n).map(|c| reach[c]).collect()
 }
 
-/// A small max-flow graph (Edmonds–Karp: shortest augmenting paths), f64 capacities.
-struct FlowGraph {
-    head: Vec<Vec<usize>>,
-    to: Vec<usize>,
-    cap: Vec<f64>,
-}
-
-impl FlowGraph {
-    fn new(n: usize) -> Self {
-        Self {
-            head: vec![Vec::new(); n],
-            to: Vec::new(),
-            cap: Vec::new(),
-        }
-    }
-    /// Edge a→b of capacity `ab` and its reverse of capacity `ba`.
-    fn add(&mut self, a: usize, b: usize, ab: f64, ba: f64) {
-        self.head[a].push(self.to.len());
-        self.to.push(b);
-        self.cap.push(ab);
-        self.head[b].push(self.to.len());
-        self.to.push(a);
-        self.cap.push(ba);
-    }
-    fn max_flow(&mut self, s: usize, t: usize) {
-        const EPS: f64 = 1e-12;
-        loop {
-            let mut prev = vec![usize::MAX; self.head.len()];
-            let mut queue = std::collections::VecDeque::from([s]);
-            let mut seen = vec![false; self.head.len()];
-            seen[s] = true;
-            while let Some(u) = queue.pop_front() {
-                if u == t {
-                    break;
-                }
-                for &e in &self.head[u] {
-                    let v = self.to[e];
-                    if !seen[v] && self.cap[e] > EPS {
-                        seen[v] = true;
-                        prev[v] = e;
-                        queue.push_back(v);
-                    }
-                }
-            }
-            if !seen[t] {
-                return;
-            }
-            let mut push = f64::MAX;
-            let mut v = t;
-            while v != s {
-                let e = prev[v];
-                push = push.min(self.cap[e]);
-                v = self.to[e ^ 1];
-            }
-            let mut v = t;
-            while v != s {
-                let e = prev[v];
-                self.cap[e] -= push;
-                self.cap[e ^ 1] += push;
-                v = self.to[e ^ 1];
-            }
-        }
-    }
-    fn reachable(&self, s: usize) -> Vec<bool> {
-        let mut seen = vec![false; self.head.len()];
-        seen[s] = true;
-        let mut stack = vec![s];
-        while let Some(u) = stack.pop() {
-            for &e in &self.head[u] {
-                if self.cap[e] > 1e-12 && !seen[self.to[e]] {
-                    seen[self.to[e]] = true;
-                    stack.push(self.to[e]);
-                }
-            }
-        }
-        seen
-    }
-}
-
 /// Where a cut line comes from.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
 #[serde(rename_all = "snake_case")]
@@ -203,6 +127,9 @@ pub enum LineSource {
     Wall(u32),
     /// Where roof planes `a` and `b` are at equal height.
     RoofMeet(u32, u32),
+    /// Where the points of roof plane `k` (`None`: of every roof plane) end
+    /// ([`super::evidence_edges`]).
+    EvidenceEdge(Option<u32>),
 }
 
 /// A segment of a cutting line: `origin + t·dir` for t in [t0, t1] (before prolongation).
@@ -216,6 +143,8 @@ pub struct SplitLine {
     pub t0: f64,
     /// Seen extent along `dir`, metres.
     pub t1: f64,
+    /// How far past its seen extent the line cuts, metres (at each end).
+    pub reach_m: f64,
     /// What made it.
     pub source: LineSource,
 }
@@ -387,12 +316,12 @@ impl VertexGrid {
     }
 }
 
-/// The partition of the box [`lo`, `hi`] by `lines`, each prolonged by `extend_m` at both ends.
-pub fn partition(lo: DVec2, hi: DVec2, lines: &[SplitLine], extend_m: f64) -> Partition {
+/// The partition of the box [`lo`, `hi`] by `lines`, each prolonged by its `reach_m` at both ends.
+pub fn partition(lo: DVec2, hi: DVec2, lines: &[SplitLine]) -> Partition {
     let mut cells: Vec<Vec<DVec2>> =
         vec![vec![lo, DVec2::new(hi.x, lo.y), hi, DVec2::new(lo.x, hi.y)]];
     for l in lines {
-        let (a, b) = (l.t0 - extend_m, l.t1 + extend_m);
+        let (a, b) = (l.t0 - l.reach_m, l.t1 + l.reach_m);
         let mut next = Vec::with_capacity(cells.len() + 8);
         for c in cells {
             match split(&c, l.origin, l.dir, a, b) {
@@ -535,6 +464,7 @@ mod tests {
 
     fn line(o: (f64, f64), d: (f64, f64), t0: f64, t1: f64) -> SplitLine {
         SplitLine {
+            reach_m: 1.0,
             origin: DVec2::new(o.0, o.1),
             dir: DVec2::new(d.0, d.1).normalize(),
             t0,
@@ -554,7 +484,6 @@ mod tests {
                 line((5.0, 0.0), (0.0, 1.0), 0.0, 10.0),
                 line((0.0, 5.0), (1.0, 0.0), 0.0, 2.0),
             ],
-            1.0,
         );
         assert_eq!(p.cells.len(), 3);
         let total: f64 = (0..3).map(|c| p.area(c)).sum();
@@ -576,7 +505,7 @@ mod tests {
             line((10.0, 10.0), (1.0, 0.0), 0.0, 10.0),
             line((10.0, 10.0), (0.0, 1.0), 0.0, 10.0),
         ];
-        let p = partition(DVec2::splat(-5.0), DVec2::splat(25.0), &lines, 0.5);
+        let p = partition(DVec2::splat(-5.0), DVec2::splat(25.0), &lines);
         let mut roof = Vec::new();
         for i in 0..40 {
             for j in 0..40 {

@@ -7,10 +7,13 @@
 //! fused points + weights, voxel, ground height
 //!   ├─ planes::detect        → PlaneSet   walls / roofs / ground, regularised by the data's own
 //!   │                                     dominant directions, coplanar pieces merged
-//!   ├─ wall_traces + roof::meet_lines → SplitLine[]  wall traces on the ground, roof meet lines
+//!   ├─ wall_traces + roof::meet_lines + roof_edges
+//!   │                        → SplitLine[]  wall traces on the ground, roof meet lines, and
+//!   │                                     where roof evidence ends (evidence_edges)
 //!   ├─ footprint::partition  → Partition  convex cells of the site's box cut by those lines
 //!   ├─ footprint::label      → Footprint  cells inside by roof evidence, buildings = components
-//!   ├─ roof::assign          → CellRoof per inside cell (supported, or inferred with evidence)
+//!   ├─ roof::assign          → CellRoof per inside cell: roof planes by α-expansion over
+//!   │                                     data and seam terms (supported, or inferred)
 //!   ├─ solid::extrude        → Solid      closed planar polygon surface with provenance
 //!   └─ cityjson::document    → CityJSON 2.0 (one LoD2 Building per footprint)
 //! ```
@@ -20,7 +23,9 @@
 //! Scoring ([`score`]) reuses [`crate::metrics`] exactly as `reconstruct` scores its mesh.
 
 pub mod cityjson;
+pub mod evidence_edges;
 pub mod footprint;
+mod max_flow;
 pub mod planes;
 pub mod roof;
 pub mod solid;
@@ -93,6 +98,7 @@ pub struct Twin {
 
 /// Wall planes' traces on the ground, each with its seen extent.
 pub fn wall_traces(points: &[Vec3], set: &PlaneSet) -> Vec<SplitLine> {
+    let reach_m = footprint::EXTEND_VOXELS * set.tol.voxel_m;
     set.planes
         .iter()
         .enumerate()
@@ -110,10 +116,39 @@ pub fn wall_traces(points: &[Vec3], set: &PlaneSet) -> Vec<SplitLine> {
                 dir,
                 t0,
                 t1,
+                reach_m,
                 source: LineSource::Wall(k as u32),
             }
         })
         .collect()
+}
+
+/// Where roof evidence ends ([`evidence_edges`]): the edges of all roof points together and of
+/// each roof plane with at least [`roof::MEET_SUPPORT`] points.
+pub fn roof_edges(points: &[Vec3], set: &PlaneSet) -> Vec<SplitLine> {
+    let xy_of = |keep: &dyn Fn(u32) -> bool| -> Vec<DVec2> {
+        (0..points.len())
+            .filter(|&i| set.label[i].is_some_and(keep))
+            .map(|i| points[i].as_dvec3().truncate())
+            .collect()
+    };
+    let is_roof = |k: u32| set.planes[k as usize].kind == PlaneKind::Roof;
+    let az = &set.dominant_azimuths;
+    let pixel = set.tol.voxel_m;
+    let mut out =
+        evidence_edges::edge_lines(&xy_of(&is_roof), az, pixel, LineSource::EvidenceEdge(None));
+    for (k, p) in set.planes.iter().enumerate() {
+        if p.kind == PlaneKind::Roof && p.support.len() >= roof::MEET_SUPPORT {
+            let k = k as u32;
+            out.extend(evidence_edges::edge_lines(
+                &xy_of(&|j| j == k),
+                az,
+                pixel,
+                LineSource::EvidenceEdge(Some(k)),
+            ));
+        }
+    }
+    out
 }
 
 /// Runs the pipeline (module docs).
@@ -153,6 +188,7 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
     let set = planes::detect(points, weights, input.ground_z, tol)?;
     let mut lines = wall_traces(points, &set);
     lines.extend(roof::meet_lines(points, &set));
+    lines.extend(roof_edges(points, &set));
     let extend_m = footprint::EXTEND_VOXELS * input.voxel_m;
     let lo = points.iter().fold(DVec2::splat(f64::MAX), |m, p| {
         m.min(p.as_dvec3().truncate())
@@ -160,7 +196,7 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
     let hi = points.iter().fold(DVec2::splat(f64::MIN), |m, p| {
         m.max(p.as_dvec3().truncate())
     }) + DVec2::splat(extend_m);
-    let part = footprint::partition(lo, hi, &lines, extend_m);
+    let part = footprint::partition(lo, hi, &lines);
     let roof_xy: Vec<DVec2> = (0..points.len())
         .filter(|&i| set.label[i].is_some_and(|k| set.planes[k as usize].kind == PlaneKind::Roof))
         .map(|i| points[i].as_dvec3().truncate())
@@ -184,7 +220,7 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
             roofs: count(PlaneKind::Roof),
         });
     }
-    let roofs = roof::assign(&fp, points, weights, &set, input.ground_z);
+    let roofs = roof::assign(&fp, points, &set, input.ground_z, &walls, &terms);
     let solid = solid::extrude(&fp, &roofs, &set, input.ground_z);
     Ok(Twin {
         planes: set,

@@ -11,29 +11,48 @@
 //!   (a step between parallel roofs) and no line is made; nor when the planes are within the
 //!   snapping angle of each other (the line's position is then ill-conditioned) or either has
 //!   fewer than [`MEET_SUPPORT`] points.
-//! - **Support**: a cell's roof is the roof plane with the largest fusion weight among the
-//!   points it explains whose ground position lies in the cell — the data term of one roof per
-//!   footprint point.
-//! - **Inference**: an inside cell with no supported plane takes a level roof at the height its
-//!   neighbour's roof has along their shared edge (breadth first from the supported cells, in
-//!   cell order), and is marked inferred with that neighbour as its evidence. Level, not the
-//!   neighbour's slope: continuing a slope over ground where nothing was seen extrapolates a
-//!   plane fitted over a few metres across the whole cell. A plane that would put a corner of the
-//!   cell below the ground (plus one voxel) or more than [`HEIGHT_MARGIN_VOXELS`] voxels above the
-//!   highest point of the cloud is not accepted there: that is extrapolation, not evidence. A
-//!   cell no accepted plane reaches gets a level roof at the median height of the building's
-//!   supported points, marked inferred.
+//! - **Labelling** (the roof-plane labelling of City3D and 3DBAG's roofer, on the footprint's
+//!   cells): every inside cell takes one roof plane, chosen by minimising
+//!   - a *data term*: over the roof points above the cell, each point's vertical distance to the
+//!     plane in units of the distance tolerance (one voxel), squared and truncated at
+//!     [`RESIDUAL_CAP`] (a point two voxels off belongs to another surface), times the area one
+//!     voxel sample stands for — so the data are in m²;
+//!   - a *seam term* between neighbouring cells with different planes: [`SEAM_COST_M`] per
+//!     metre, plus [`STEP_COST`] per m² of the vertical face the two roofs' height difference
+//!     stands along the shared edge, reduced by the share of that edge a seen wall supports.
+//!     Where two planes meet on the edge (a ridge, a valley) the face vanishes, so roofs change
+//!     plane where they meet or where a wall was seen.
+//!
+//!   The seam term is a metric, so α-expansion (Boykov, Veksler & Zabih 2001) minimises the
+//!   energy by one minimum cut per label and pass. A cell over which no point was seen takes the
+//!   plane its neighbours make cheapest, marked inferred from a neighbour on that plane.
+//! - **Plausibility**: a plane that would put a corner of the cell below the ground (plus one
+//!   voxel) or more than [`HEIGHT_MARGIN_VOXELS`] voxels above the highest point of the cloud is
+//!   not a candidate there: that is extrapolation, not evidence. A cell no plane reaches gets a
+//!   level roof at the median height of the building's roof points, marked inferred.
 
 use std::collections::HashMap;
 
 use glam::{DVec2, DVec3, Vec3};
 
-use super::footprint::{Footprint, LineSource, SplitLine};
+use super::footprint::{Footprint, LabelTerms, LineSource, SplitLine};
+use super::max_flow::FlowGraph;
 use super::planes::{PlaneKind, PlaneSet, MIN_SUPPORT, SNAP_DEG};
 use crate::knn::PointIndex;
 
 /// A roof plane may rise this many voxels above the highest cloud point at a cell corner.
 pub const HEIGHT_MARGIN_VOXELS: f64 = 4.0;
+/// Residuals are truncated at this many squared distance tolerances: a point farther from a
+/// plane than two voxels belongs to another surface, and costs the same however far.
+pub const RESIDUAL_CAP: f64 = 4.0;
+/// Cost of one metre of seam between two roof labels, m² per metre: 1 % of the footprint's
+/// outline cost (of two equal labellings, the one with fewer seams).
+pub const SEAM_COST_M: f64 = 0.01 * super::footprint::OUTLINE_COST_M;
+/// Cost of one m² of vertical face a step between two roofs stands where no wall was seen,
+/// against one m² of roof points explained (the data term's unit).
+pub const STEP_COST: f64 = 1.0;
+/// Passes of α-expansion over the labels (each pass lowers the energy or ends it).
+pub const MAX_SWEEPS: usize = 4;
 /// Fewest points of each of two roof planes for their meet line to cut the partition.
 pub const MEET_SUPPORT: usize = 3 * MIN_SUPPORT;
 /// Fewest touching point pairs for two roofs to meet.
@@ -125,6 +144,7 @@ pub fn meet_lines(points: &[Vec3], set: &PlaneSet) -> Vec<SplitLine> {
             dir,
             t0,
             t1,
+            reach_m: super::footprint::EXTEND_VOXELS * set.tol.voxel_m,
             source: LineSource::RoofMeet(a, b),
         });
     }
@@ -139,103 +159,252 @@ fn plausible(fp: &Footprint, c: usize, roof: &CellRoof, z_lo: f64, z_hi: f64) ->
     })
 }
 
+/// One shared edge of two cells: its ends and its wall support, 0–1.
+type SeamEdge = (DVec2, DVec2, f64);
+/// Two neighbouring cells (lower index first) and their shared edges.
+type CellPair = ((usize, usize), Vec<SeamEdge>);
+
+/// ∫|g(t)| over a segment of length `len` on which g is linear from `g0` to `g1`.
+fn abs_integral(g0: f64, g1: f64, len: f64) -> f64 {
+    if g0 * g1 >= 0.0 {
+        0.5 * len * (g0.abs() + g1.abs())
+    } else {
+        0.5 * len * (g0 * g0 + g1 * g1) / (g0.abs() + g1.abs())
+    }
+}
+
+/// The cost of two labels on either side of the edges `edges` (ends, wall support 0–1) of two
+/// neighbouring cells (module docs): the seam's length and the unsupported vertical face a step
+/// between the two roofs would stand.
+fn seam_cost(p: &CellRoof, q: &CellRoof, edges: &[SeamEdge]) -> f64 {
+    edges
+        .iter()
+        .map(|&(a, b, wall)| {
+            let len = a.distance(b);
+            SEAM_COST_M * len
+                + STEP_COST
+                    * (1.0 - wall)
+                    * abs_integral(p.z_at(a) - q.z_at(a), p.z_at(b) - q.z_at(b), len)
+        })
+        .sum()
+}
+
 /// The roof of each cell (`None` outside), given the footprint, the points and their planes,
-/// over a ground at `ground_z`.
+/// over a ground at `ground_z`, with the wall traces `walls` supporting steps (module docs).
 pub fn assign(
     fp: &Footprint,
     points: &[Vec3],
-    weights: &[f32],
     set: &PlaneSet,
     ground_z: f64,
+    walls: &[SplitLine],
+    terms: &LabelTerms,
 ) -> Vec<Option<CellRoof>> {
     let n = fp.partition.cells.len();
-    let z_lo = ground_z + set.tol.voxel_m;
+    let tol = set.tol;
+    let z_lo = ground_z + tol.voxel_m;
     let z_top = points.iter().map(|p| p.z as f64).fold(f64::MIN, f64::max);
-    let z_hi = z_top + HEIGHT_MARGIN_VOXELS * set.tol.voxel_m;
-    // Bounding boxes for point location.
-    let boxes: Vec<(DVec2, DVec2)> = (0..n)
+    let z_hi = z_top + HEIGHT_MARGIN_VOXELS * tol.voxel_m;
+    // The roof points of each inside cell, located through a bucket grid of cell boxes.
+    let cell_points = locate(fp, points, set);
+    let labels: Vec<u32> = (0..set.planes.len() as u32)
+        .filter(|&k| set.planes[k as usize].kind == PlaneKind::Roof)
+        .collect();
+    let roof_of = |k: u32| {
+        let p = &set.planes[k as usize];
+        CellRoof {
+            n: p.n,
+            d: p.d,
+            plane: Some(k),
+            support: 0,
+            inferred_from: None,
+        }
+    };
+    // Data terms: per inside cell, per label, the truncated squared residual of its roof points
+    // (m² of voxel area per point); `None` where the plane is not plausible over the cell.
+    let sigma = tol.distance_m;
+    let area = tol.voxel_m * tol.voxel_m;
+    let data: Vec<Vec<Option<f64>>> = (0..n)
         .map(|c| {
-            let r = fp.partition.ring(c);
-            let lo = r.iter().fold(DVec2::splat(f64::MAX), |m, &p| m.min(p));
-            let hi = r.iter().fold(DVec2::splat(f64::MIN), |m, &p| m.max(p));
-            (lo, hi)
+            if !fp.inside[c] {
+                return Vec::new();
+            }
+            labels
+                .iter()
+                .map(|&k| {
+                    let r = roof_of(k);
+                    plausible(fp, c, &r, z_lo, z_hi).then(|| {
+                        cell_points[c]
+                            .iter()
+                            .map(|&i| {
+                                let q = points[i as usize].as_dvec3();
+                                let e = (q.z - r.z_at(q.truncate())) / sigma;
+                                area * (e * e).min(RESIDUAL_CAP)
+                            })
+                            .sum()
+                    })
+                })
+                .collect()
         })
         .collect();
-    let mut votes: Vec<HashMap<u32, (f64, usize)>> = vec![HashMap::new(); n];
-    let mut building_heights: Vec<Vec<f64>> = vec![Vec::new(); fp.buildings];
-    for (i, p) in points.iter().enumerate() {
-        let Some(k) = set.label[i] else { continue };
-        if set.planes[k as usize].kind != PlaneKind::Roof {
+    // Shared edges between inside cells of one building, with their wall support.
+    let nb = fp.partition.neighbours();
+    let mut shared: HashMap<(usize, usize), Vec<SeamEdge>> = HashMap::new();
+    for (c, around) in nb.iter().enumerate() {
+        if !fp.inside[c] {
             continue;
         }
-        let q = p.as_dvec3().truncate();
-        let Some(c) = (0..n).find(|&c| {
-            fp.inside[c]
-                && q.cmpge(boxes[c].0 - 1e-9).all()
-                && q.cmple(boxes[c].1 + 1e-9).all()
-                && fp.partition.contains(c, q)
-        }) else {
-            continue;
-        };
-        let e = votes[c].entry(k).or_insert((0.0, 0));
-        e.0 += weights[i] as f64;
-        e.1 += 1;
-        if let Some(b) = fp.building[c] {
-            building_heights[b as usize].push(p.z as f64);
+        let ring = &fp.partition.cells[c];
+        for (k, d) in around.iter().enumerate() {
+            let Some(d) = d.map(|d| d as usize) else {
+                continue;
+            };
+            if d <= c || !fp.inside[d] {
+                continue;
+            }
+            let a = fp.partition.vertices[ring[k] as usize];
+            let b = fp.partition.vertices[ring[(k + 1) % ring.len()] as usize];
+            let wall = super::footprint::wall_support(a, b, walls, terms);
+            shared.entry((c, d)).or_default().push((a, b, wall));
+        }
+    }
+    let mut pairs: Vec<CellPair> = shared.into_iter().collect();
+    pairs.sort_by_key(|p| p.0);
+    let mut adj: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (k, ((c, d), _)) in pairs.iter().enumerate() {
+        adj[*c].push(k);
+        adj[*d].push(k);
+    }
+    // Start: each cell its best plausible label; cells with none stay unlabelled (fallback).
+    let mut lab: Vec<Option<usize>> = (0..n)
+        .map(|c| {
+            data[c]
+                .iter()
+                .enumerate()
+                .filter_map(|(j, v)| v.map(|v| (j, v)))
+                .min_by(|a, b| a.1.total_cmp(&b.1).then(a.0.cmp(&b.0)))
+                .map(|(j, _)| j)
+        })
+        .collect();
+    let roofs_l: Vec<CellRoof> = labels.iter().map(|&k| roof_of(k)).collect();
+    let v = |j: usize, l: usize, e: &[SeamEdge]| {
+        if j == l {
+            0.0
+        } else {
+            seam_cost(&roofs_l[j], &roofs_l[l], e)
+        }
+    };
+    // α-expansion (Boykov, Veksler & Zabih 2001): the seam cost is a metric, so each expansion
+    // is one minimum cut and the energy never rises.
+    for _sweep in 0..MAX_SWEEPS {
+        let mut changed = false;
+        for alpha in 0..labels.len() {
+            // Variables: labelled cells not on α where α is plausible.
+            let mut var = vec![usize::MAX; n];
+            let mut cells = Vec::new();
+            for c in 0..n {
+                if let Some(f) = lab[c] {
+                    if f != alpha && data[c][alpha].is_some() {
+                        var[c] = cells.len();
+                        cells.push(c);
+                    }
+                }
+            }
+            if cells.is_empty() {
+                continue;
+            }
+            let m = cells.len();
+            let (s, t) = (m, m + 1);
+            let mut g = FlowGraph::new(m + 2);
+            let mut unary = vec![0.0f64; m]; // cost of x = 1 (take α) minus cost of x = 0
+            for (vi, &c) in cells.iter().enumerate() {
+                let f = lab[c].expect("variables are labelled");
+                unary[vi] += data[c][alpha].expect("plausible") - data[c][f].expect("own label");
+            }
+            for ((c, d), e) in &pairs {
+                let (vc, vd) = (var[*c], var[*d]);
+                match (vc != usize::MAX, vd != usize::MAX) {
+                    (false, false) => {}
+                    (true, false) | (false, true) => {
+                        let (x, other) = if vc != usize::MAX { (*c, *d) } else { (*d, *c) };
+                        let Some(g_lab) = lab[other] else { continue };
+                        let f = lab[x].expect("variable");
+                        unary[var[x]] += v(alpha, g_lab, e) - v(f, g_lab, e);
+                    }
+                    (true, true) => {
+                        let (fc, fd) = (lab[*c].expect("var"), lab[*d].expect("var"));
+                        let e00 = v(fc, fd, e);
+                        let e01 = v(fc, alpha, e);
+                        let e10 = v(alpha, fd, e);
+                        unary[vc] += e10 - e00;
+                        unary[vd] -= e10;
+                        let cap = (e01 + e10 - e00).max(0.0);
+                        if cap > 0.0 {
+                            g.add(vc, vd, cap, 0.0);
+                        }
+                    }
+                }
+            }
+            for (vi, &u) in unary.iter().enumerate() {
+                if u > 0.0 {
+                    g.add(s, vi, u, 0.0);
+                } else if u < 0.0 {
+                    g.add(vi, t, -u, 0.0);
+                }
+            }
+            g.max_flow(s, t);
+            let reach = g.reachable(s);
+            let take: Vec<usize> = (0..m).filter(|&vi| !reach[vi]).collect();
+            if take.is_empty() {
+                continue;
+            }
+            // Accept only a strict decrease (guards against rounding).
+            let before = energy(&lab, &data, &pairs, &v);
+            let old = lab.clone();
+            for &vi in &take {
+                lab[cells[vi]] = Some(alpha);
+            }
+            if energy(&lab, &data, &pairs, &v) < before - 1e-9 {
+                changed = true;
+            } else {
+                lab = old;
+            }
+        }
+        if !changed {
+            break;
         }
     }
     let mut roofs: Vec<Option<CellRoof>> = vec![None; n];
     for c in 0..n {
-        if !fp.inside[c] {
-            continue;
-        }
-        let mut cand: Vec<(u32, f64, usize)> =
-            votes[c].iter().map(|(&k, &(w, m))| (k, w, m)).collect();
-        cand.sort_by(|a, b| b.1.total_cmp(&a.1).then(a.0.cmp(&b.0)));
-        for (k, _, m) in cand {
-            let p = &set.planes[k as usize];
-            let r = CellRoof {
-                n: p.n,
-                d: p.d,
-                plane: Some(k),
-                support: m,
-                inferred_from: None,
-            };
-            if plausible(fp, c, &r, z_lo, z_hi) {
-                roofs[c] = Some(r);
-                break;
+        if let Some(j) = lab[c] {
+            let mut r = roofs_l[j];
+            let k = labels[j];
+            r.support = cell_points[c]
+                .iter()
+                .filter(|&&i| set.label[i as usize] == Some(k))
+                .count();
+            if r.support == 0 {
+                // No point of this plane over the cell: the plane was carried here by the seam
+                // terms from the neighbour holding the most of its points.
+                let from = adj[c]
+                    .iter()
+                    .map(|&pk| {
+                        let (a, b) = pairs[pk].0;
+                        if a == c {
+                            b
+                        } else {
+                            a
+                        }
+                    })
+                    .find(|&d| lab[d] == Some(j));
+                r.inferred_from = Some(from.map(|d| d as u32));
             }
+            roofs[c] = Some(r);
         }
     }
-    // Breadth first from the supported cells.
-    let nb = fp.partition.neighbours();
-    let mut queue: std::collections::VecDeque<usize> =
-        (0..n).filter(|&c| roofs[c].is_some()).collect();
-    while let Some(c) = queue.pop_front() {
-        let from = roofs[c].expect("queued cells have roofs");
-        let ring = &fp.partition.cells[c];
-        for (k, &d) in nb[c].iter().enumerate() {
-            let Some(d) = d.map(|d| d as usize) else {
-                continue;
-            };
-            if !fp.inside[d] || roofs[d].is_some() {
-                continue;
-            }
-            // Level, at the height the neighbour's roof has along the shared edge.
-            let mid = (fp.partition.vertices[ring[k] as usize]
-                + fp.partition.vertices[ring[(k + 1) % ring.len()] as usize])
-                * 0.5;
-            let r = CellRoof {
-                n: DVec3::Z,
-                d: from.z_at(mid),
-                plane: None,
-                support: 0,
-                inferred_from: Some(Some(c as u32)),
-            };
-            if plausible(fp, d, &r, z_lo, z_hi) {
-                roofs[d] = Some(r);
-                queue.push_back(d);
-            }
+    let mut building_heights: Vec<Vec<f64>> = vec![Vec::new(); fp.buildings];
+    for (b, pts) in fp.building.iter().zip(&cell_points) {
+        if let Some(b) = b {
+            building_heights[*b as usize].extend(pts.iter().map(|&i| points[i as usize].z as f64));
         }
     }
     for (c, slot) in roofs.iter_mut().enumerate() {
@@ -258,4 +427,69 @@ pub fn assign(
         }
     }
     roofs
+}
+
+/// Total energy of a labelling.
+fn energy(
+    lab: &[Option<usize>],
+    data: &[Vec<Option<f64>>],
+    pairs: &[CellPair],
+    v: &dyn Fn(usize, usize, &[SeamEdge]) -> f64,
+) -> f64 {
+    let mut e = 0.0;
+    for (c, l) in lab.iter().enumerate() {
+        if let Some(j) = l {
+            e += data[c][*j].unwrap_or(f64::INFINITY);
+        }
+    }
+    for ((c, d), edges) in pairs {
+        if let (Some(a), Some(b)) = (lab[*c], lab[*d]) {
+            e += v(a, b, edges);
+        }
+    }
+    e
+}
+
+/// The roof points (points of roof planes) over each inside cell.
+fn locate(fp: &Footprint, points: &[Vec3], set: &PlaneSet) -> Vec<Vec<u32>> {
+    let n = fp.partition.cells.len();
+    let mut out = vec![Vec::new(); n];
+    let boxes: Vec<(DVec2, DVec2)> = (0..n)
+        .map(|c| {
+            let r = fp.partition.ring(c);
+            let lo = r.iter().fold(DVec2::splat(f64::MAX), |m, &p| m.min(p));
+            let hi = r.iter().fold(DVec2::splat(f64::MIN), |m, &p| m.max(p));
+            (lo, hi)
+        })
+        .collect();
+    let bucket = 4.0 * set.tol.voxel_m;
+    let key = |p: DVec2| ((p.x / bucket).floor() as i64, (p.y / bucket).floor() as i64);
+    let mut grid: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
+    for c in (0..n).filter(|&c| fp.inside[c]) {
+        let (a, b) = (key(boxes[c].0), key(boxes[c].1));
+        for kx in a.0..=b.0 {
+            for ky in a.1..=b.1 {
+                grid.entry((kx, ky)).or_default().push(c as u32);
+            }
+        }
+    }
+    for (i, p) in points.iter().enumerate() {
+        let Some(k) = set.label[i] else { continue };
+        if set.planes[k as usize].kind != PlaneKind::Roof {
+            continue;
+        }
+        let q = p.as_dvec3().truncate();
+        let Some(cands) = grid.get(&key(q)) else {
+            continue;
+        };
+        if let Some(&c) = cands.iter().find(|&&c| {
+            let c = c as usize;
+            q.cmpge(boxes[c].0 - 1e-9).all()
+                && q.cmple(boxes[c].1 + 1e-9).all()
+                && fp.partition.contains(c, q)
+        }) {
+            out[c as usize].push(i as u32);
+        }
+    }
+    out
 }
