@@ -158,15 +158,16 @@ pub fn run(a: TwinArgs) -> Result<()> {
     rep.mesh = mesh;
 
     let solid = &tw.solid;
-    let (tri, _) = solid.triangulate(|_| true);
+    let (tri, owner) = solid.triangulate(|_| true);
     let mut obj = Vec::new();
     writeln!(
         obj,
-        "# has planar twin: {} faces, {} buildings",
+        "# has planar twin: {} planar faces as {} triangles, {} buildings",
         solid.faces.len(),
+        tri.faces.len(),
         solid.buildings
     )?;
-    for v in &solid.vertices {
+    for v in &tri.vertices {
         writeln!(obj, "v {} {} {}", v.x, v.y, v.z)?;
     }
     for b in 0..solid.buildings as u32 {
@@ -177,16 +178,12 @@ pub fn run(a: TwinArgs) -> Result<()> {
             Surface::GroundSurface,
         ] {
             writeln!(obj, "g building_{b}_{s:?}")?;
-            for f in solid
-                .faces
-                .iter()
-                .filter(|f| f.building == b && f.surface == s)
-            {
-                write!(obj, "f")?;
-                for &v in &f.ring {
-                    write!(obj, " {}", v + 1)?;
+            // Triangles (a merged face need not be convex, and readers fan polygons).
+            for (t, &fi) in tri.faces.iter().zip(&owner) {
+                let f = &solid.faces[fi as usize];
+                if f.building == b && f.surface == s {
+                    writeln!(obj, "f {} {} {}", t[0] + 1, t[1] + 1, t[2] + 1)?;
                 }
-                writeln!(obj)?;
             }
         }
     }

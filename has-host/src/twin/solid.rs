@@ -219,7 +219,7 @@ pub fn extrude(fp: &Footprint, roofs: &[Option<CellRoof>], set: &PlaneSet, groun
                 },
                 (_, Some(Some(from))) => Provenance::Inferred {
                     evidence: format!(
-                        "no roof point over this cell; level at the height of neighbouring cell {from}'s roof along their shared edge"
+                        "no point of its plane over this cell; the plane of neighbouring cell {from}, which the seam terms carried here"
                     ),
                 },
                 _ => Provenance::Inferred {
@@ -296,39 +296,258 @@ pub fn extrude(fp: &Footprint, roofs: &[Option<CellRoof>], set: &PlaneSet, groun
             });
         }
     }
-    Solid {
+    let mut solid = Solid {
         vertices: vx.pos,
         faces,
         buildings: fp.buildings,
+    };
+    merge_coplanar(&mut solid);
+    solid
+}
+
+/// The boundary (vertex → next vertex) of a piece after absorbing the face `ring`, if it is
+/// still one simple loop: `None` when the face touches the piece nowhere along an edge, or the
+/// union would pinch at a vertex or enclose a hole.
+fn absorbed(boundary: &HashMap<u32, u32>, ring: &[u32]) -> Option<HashMap<u32, u32>> {
+    let mut next = boundary.clone();
+    let edges = (0..ring.len()).map(|k| (ring[k], ring[(k + 1) % ring.len()]));
+    let mut fresh = Vec::new();
+    let mut shared = 0;
+    for (a, b) in edges {
+        if next.get(&b) == Some(&a) {
+            next.remove(&b);
+            shared += 1;
+        } else {
+            fresh.push((a, b));
+        }
+    }
+    for (a, b) in fresh {
+        if next.insert(a, b).is_some() {
+            return None; // two boundary edges leave one vertex: a pinch
+        }
+    }
+    if shared == 0 || next.len() < 3 {
+        return None;
+    }
+    // One loop through every boundary edge.
+    let start = *next.keys().next().expect("non-empty");
+    let (mut v, mut steps) = (next[&start], 1);
+    while v != start {
+        v = *next.get(&v)?;
+        steps += 1;
+        if steps > next.len() {
+            return None;
+        }
+    }
+    (steps == next.len()).then_some(next)
+}
+
+/// Newell normal (unit) and offset of a face's best plane.
+fn face_plane(vertices: &[DVec3], ring: &[u32]) -> (DVec3, f64) {
+    let pts: Vec<DVec3> = ring.iter().map(|&v| vertices[v as usize]).collect();
+    let c = pts.iter().copied().sum::<DVec3>() / pts.len() as f64;
+    let mut n = DVec3::ZERO;
+    for k in 0..pts.len() {
+        let (p, q) = (pts[k], pts[(k + 1) % pts.len()]);
+        n += DVec3::new(
+            (p.y - q.y) * (p.z + q.z),
+            (p.z - q.z) * (p.x + q.x),
+            (p.x - q.x) * (p.y + q.y),
+        );
+    }
+    let n = n.normalize_or_zero();
+    (n, n.dot(c))
+}
+
+/// Merges faces of one building and one class that share an edge and lie on one plane (within
+/// [`HEIGHT_QUANTUM_M`]) into one polygon, where their union is bounded by a single loop; a
+/// boundary vertex between two collinear edges that no other face uses is dropped. The cells of
+/// the partition are convex pieces; the model's faces are the planes' whole pieces.
+fn merge_coplanar(solid: &mut Solid) {
+    let n = solid.faces.len();
+    let planes: Vec<(DVec3, f64)> = solid
+        .faces
+        .iter()
+        .map(|f| face_plane(&solid.vertices, &f.ring))
+        .collect();
+    let mut edge_face: HashMap<(u32, u32), usize> = HashMap::new();
+    for (i, f) in solid.faces.iter().enumerate() {
+        for k in 0..f.ring.len() {
+            edge_face.insert((f.ring[k], f.ring[(k + 1) % f.ring.len()]), i);
+        }
+    }
+    let mut parent: Vec<usize> = (0..n).collect();
+    fn root(p: &mut [usize], mut i: usize) -> usize {
+        while p[i] != i {
+            p[i] = p[p[i]];
+            i = p[i];
+        }
+        i
+    }
+    let mut keys: Vec<(u32, u32)> = edge_face.keys().copied().collect();
+    keys.sort_unstable();
+    for (a, b) in keys {
+        let (i, Some(&j)) = (edge_face[&(a, b)], edge_face.get(&(b, a))) else {
+            continue;
+        };
+        let (fi, fj) = (&solid.faces[i], &solid.faces[j]);
+        if i == j || fi.building != fj.building || fi.surface != fj.surface {
+            continue;
+        }
+        let ((ni, di), (nj, dj)) = (planes[i], planes[j]);
+        if ni.dot(nj) < 1.0 - 1e-9 || (di - dj).abs() > HEIGHT_QUANTUM_M {
+            continue;
+        }
+        let (ri, rj) = (root(&mut parent, i), root(&mut parent, j));
+        if ri != rj {
+            parent[ri.max(rj)] = ri.min(rj);
+        }
+    }
+    let mut groups: HashMap<usize, Vec<usize>> = HashMap::new();
+    for i in 0..n {
+        let r = root(&mut parent, i);
+        groups.entry(r).or_default().push(i);
+    }
+    // Faces using each vertex, to keep vertices other faces need.
+    let mut users: Vec<Vec<usize>> = vec![Vec::new(); solid.vertices.len()];
+    for (i, f) in solid.faces.iter().enumerate() {
+        for &v in &f.ring {
+            users[v as usize].push(i);
+        }
+    }
+    // Neighbours of each face within its group.
+    let mut adjacent: Vec<Vec<usize>> = vec![Vec::new(); n];
+    for (&(a, b), &i) in &edge_face {
+        if let Some(&j) = edge_face.get(&(b, a)) {
+            if i != j && root(&mut parent, i) == root(&mut parent, j) {
+                adjacent[i].push(j);
+            }
+        }
+    }
+    for a in adjacent.iter_mut() {
+        a.sort_unstable();
+        a.dedup();
+    }
+    let mut order: Vec<usize> = groups.keys().copied().collect();
+    order.sort_unstable();
+    let mut merged: Vec<Option<Vec<u32>>> = vec![None; n];
+    let mut provenance: Vec<Option<Provenance>> = vec![None; n];
+    let mut dropped = vec![false; n];
+    let mut taken = vec![false; n];
+    for r in order {
+        let members = &groups[&r];
+        if members.len() < 2 {
+            continue;
+        }
+        // Pieces grown face by face, each kept one simple loop without holes (a polygon).
+        for &seed in members {
+            if taken[seed] {
+                continue;
+            }
+            taken[seed] = true;
+            let mut piece = vec![seed];
+            let mut boundary: HashMap<u32, u32> = HashMap::new();
+            let ring = &solid.faces[seed].ring;
+            for k in 0..ring.len() {
+                boundary.insert(ring[k], ring[(k + 1) % ring.len()]);
+            }
+            let mut queue: std::collections::VecDeque<usize> =
+                adjacent[seed].iter().copied().collect();
+            let mut refused: std::collections::HashSet<usize> = Default::default();
+            while let Some(f) = queue.pop_front() {
+                if taken[f] || refused.contains(&f) {
+                    continue;
+                }
+                if let Some(next) = absorbed(&boundary, &solid.faces[f].ring) {
+                    boundary = next;
+                    taken[f] = true;
+                    piece.push(f);
+                    queue.extend(adjacent[f].iter().copied());
+                    refused.clear();
+                } else {
+                    refused.insert(f);
+                }
+            }
+            if piece.len() < 2 {
+                continue;
+            }
+            let inside: std::collections::HashSet<usize> = piece.iter().copied().collect();
+            let start = *boundary.keys().min().expect("a loop");
+            let mut ring = vec![start];
+            let mut v = boundary[&start];
+            while v != start {
+                ring.push(v);
+                v = boundary[&v];
+            }
+            // Drop collinear boundary vertices no face outside the piece uses.
+            let pos = |v: u32| solid.vertices[v as usize];
+            let mut k = 0;
+            while ring.len() > 3 && k < ring.len() {
+                let m = ring.len();
+                let (a, b, c) = (ring[(k + m - 1) % m], ring[k], ring[(k + 1) % m]);
+                let (u, w) = (pos(b) - pos(a), pos(c) - pos(b));
+                let collinear =
+                    u.cross(w).length() <= 1e-9 * u.length() * w.length() && u.dot(w) > 0.0;
+                if collinear && users[b as usize].iter().all(|f| inside.contains(f)) {
+                    ring.remove(k);
+                } else {
+                    k += 1;
+                }
+            }
+            let keep = *piece.iter().min().expect("non-empty");
+            // The piece is supported if any of its cells is: by that plane, with the points
+            // over all of them.
+            let mut support: Option<(u32, usize)> = None;
+            for &i in &piece {
+                if let Provenance::Plane { plane, points } = solid.faces[i].provenance {
+                    let (p, m) = support.get_or_insert((plane, 0));
+                    if *p == plane {
+                        // A roof face counts the points over its cell, a wall its plane's.
+                        *m = match solid.faces[i].surface {
+                            Surface::RoofSurface => *m + points,
+                            _ => points,
+                        };
+                    }
+                }
+            }
+            if let Some((plane, points)) = support {
+                provenance[keep] = Some(Provenance::Plane { plane, points });
+            }
+            merged[keep] = Some(ring);
+            for &i in &piece {
+                dropped[i] = i != keep;
+            }
+        }
+    }
+    let old = std::mem::take(&mut solid.faces);
+    for (i, mut f) in old.into_iter().enumerate() {
+        if dropped[i] {
+            continue;
+        }
+        if let Some(ring) = merged[i].take() {
+            f.ring = ring;
+        }
+        if let Some(p) = provenance[i].take() {
+            f.provenance = p;
+        }
+        solid.faces.push(f);
     }
 }
 
 impl Solid {
-    /// The faces `keep` accepts as triangles: each (convex) face fanned from its centroid,
-    /// which is added as a vertex; also returns the face of each triangle.
+    /// The faces `keep` accepts as triangles (ear clipping in each face's plane: merged faces
+    /// need not be convex; collinear boundary vertices stay, so neighbouring faces still share
+    /// every edge); also returns the face of each triangle.
     pub fn triangulate(&self, keep: impl Fn(&Face) -> bool) -> (TriMesh, Vec<u32>) {
-        let mut vertices: Vec<glam::Vec3> = self.vertices.iter().map(|v| v.as_vec3()).collect();
+        let vertices: Vec<glam::Vec3> = self.vertices.iter().map(|v| v.as_vec3()).collect();
         let mut faces = Vec::new();
         let mut owner = Vec::new();
         for (fi, f) in self.faces.iter().enumerate() {
             if !keep(f) {
                 continue;
             }
-            if f.ring.len() == 3 {
-                faces.push([f.ring[0], f.ring[1], f.ring[2]]);
-                owner.push(fi as u32);
-                continue;
-            }
-            let c = f
-                .ring
-                .iter()
-                .map(|&v| self.vertices[v as usize])
-                .sum::<DVec3>()
-                / f.ring.len() as f64;
-            let ci = vertices.len() as u32;
-            vertices.push(c.as_vec3());
-            for k in 0..f.ring.len() {
-                faces.push([ci, f.ring[k], f.ring[(k + 1) % f.ring.len()]]);
+            for t in ear_clip(&self.vertices, &f.ring) {
+                faces.push(t);
                 owner.push(fi as u32);
             }
         }
@@ -388,4 +607,66 @@ impl Solid {
             .filter(|f| matches!(f.provenance, Provenance::Inferred { .. }))
             .count()
     }
+}
+
+/// Triangles of the simple planar polygon `ring` (counter-clockwise about its Newell normal) by
+/// ear clipping in its plane: an ear is a strictly convex vertex whose triangle holds no other
+/// remaining vertex, on its boundary included (so collinear chains are cut, never collapsed).
+fn ear_clip(vertices: &[DVec3], ring: &[u32]) -> Vec<[u32; 3]> {
+    if ring.len() < 3 {
+        return Vec::new();
+    }
+    let (n, _) = face_plane(vertices, ring);
+    let u = n.any_orthonormal_vector();
+    let w = n.cross(u);
+    let p2 = |v: u32| {
+        let p = vertices[v as usize];
+        DVec2::new(p.dot(u), p.dot(w))
+    };
+    let mut idx: Vec<u32> = ring.to_vec();
+    let mut out = Vec::with_capacity(ring.len() - 2);
+    let scale = idx.iter().map(|&v| p2(v).length()).fold(1.0f64, f64::max);
+    let eps = 1e-12 * scale * scale;
+    while idx.len() > 3 {
+        let m = idx.len();
+        let mut best: Option<usize> = None;
+        for k in 0..m {
+            let (a, b, c) = (idx[(k + m - 1) % m], idx[k], idx[(k + 1) % m]);
+            let (pa, pb, pc) = (p2(a), p2(b), p2(c));
+            let cross = (pb - pa).perp_dot(pc - pb);
+            if cross <= eps {
+                continue;
+            }
+            let blocked = idx.iter().any(|&v| {
+                if v == a || v == b || v == c {
+                    return false;
+                }
+                let q = p2(v);
+                (pb - pa).perp_dot(q - pa) >= -eps
+                    && (pc - pb).perp_dot(q - pb) >= -eps
+                    && (pa - pc).perp_dot(q - pc) >= -eps
+            });
+            if !blocked {
+                best = Some(k);
+                break;
+            }
+        }
+        let k = match best {
+            Some(k) => k,
+            // Numerically degenerate remainder: clip the most convex vertex.
+            None => (0..m)
+                .max_by(|&i, &j| {
+                    let t = |k: usize| {
+                        let (a, b, c) = (idx[(k + m - 1) % m], idx[k], idx[(k + 1) % m]);
+                        (p2(b) - p2(a)).perp_dot(p2(c) - p2(b))
+                    };
+                    t(i).total_cmp(&t(j))
+                })
+                .expect("m > 3"),
+        };
+        out.push([idx[(k + m - 1) % m], idx[k], idx[(k + 1) % m]]);
+        idx.remove(k);
+    }
+    out.push([idx[0], idx[1], idx[2]]);
+    out
 }
