@@ -5,7 +5,10 @@
 //! Reads `RUN_DIR/report.json` (the voxel, the scenario file, the seed and sampling density of
 //! the mesh's scoring, the mesh's figures), `RUN_DIR/fused.ply` (points and their `weight`) and,
 //! for the metrics only, `RUN_DIR/ground_truth.ply` and the scenario's truth objects. The
-//! scenario also gives the ground height (its ground objects under the cloud's centre).
+//! scenario also gives the ground height (its ground objects under the cloud's centre). The
+//! run's pair clouds (`RUN_DIR/pair_*.ply`) with their base station's and terminal's positions
+//! from the scenario orient the walls (`has_host::twin::enclosure`); a run without them gives
+//! a twin whose footprint rests on roof evidence alone.
 
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -135,11 +138,13 @@ pub fn run(a: TwinArgs) -> Result<()> {
         .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero().z > -0.5)
         .collect();
 
+    let views = pair_views(&a.run_dir, &sc)?;
     let input = TwinInput {
         points: &fused.vertices,
         weights: &weights,
         voxel_m,
         ground_z,
+        views: &views,
     };
     let t0 = std::time::Instant::now();
     let tw = twin::build(&input).with_context(|| format!("{}", fused_path.display()))?;
@@ -238,4 +243,41 @@ fn ground_height(sc: &Scenario, objects: &[has_host::Object], points: &[Vec3]) -
             )
         })?;
     Ok(hit.point.z as f64)
+}
+
+/// The run's pair clouds (`pair_BS-AP.ply`) with the positions of their base station and the
+/// centre of their terminal's track, from the scenario; a file whose name names no pair of the
+/// scenario is an error.
+fn pair_views(run_dir: &Path, sc: &Scenario) -> Result<Vec<twin::enclosure::PairView>> {
+    let mut names: Vec<String> = std::fs::read_dir(run_dir)
+        .with_context(|| format!("reading {}", run_dir.display()))?
+        .filter_map(|e| e.ok()?.file_name().into_string().ok())
+        .filter(|n| n.starts_with("pair_") && n.ends_with(".ply"))
+        .collect();
+    names.sort();
+    let mut views = Vec::with_capacity(names.len());
+    for file in names {
+        let pair = &file["pair_".len()..file.len() - ".ply".len()];
+        let ends = pair.split_once('-').and_then(|(bs, ap)| {
+            let b = sc.base_stations.iter().find(|b| b.name == bs)?;
+            let i = sc.apertures.iter().position(|a| a.name == ap)?;
+            Some((
+                glam::Vec3::from(b.position).as_dvec3(),
+                sc.aperture(i, 2).centre().as_dvec3(),
+            ))
+        });
+        let Some((receiver, transmitter)) = ends else {
+            anyhow::bail!(
+                "{}: file {file} names no base station–aperture pair of the scenario",
+                run_dir.display()
+            );
+        };
+        let points = ply::read_ply(&run_dir.join(&file))?.vertices;
+        views.push(twin::enclosure::PairView {
+            points,
+            receiver,
+            transmitter,
+        });
+    }
+    Ok(views)
 }

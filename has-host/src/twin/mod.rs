@@ -11,7 +11,10 @@
 //!   │                        → SplitLine[]  wall traces on the ground, roof meet lines, and
 //!   │                                     where roof evidence ends (evidence_edges)
 //!   ├─ footprint::partition  → Partition  convex cells of the site's box cut by those lines
-//!   ├─ footprint::label      → Footprint  cells inside by roof evidence, buildings = components
+//!   ├─ enclosure             → wall fronts from the pair clouds; ground enclosed between
+//!   │                                     facades seen from outside (footprint evidence)
+//!   ├─ footprint::label      → Footprint  cells inside by roof and enclosure evidence,
+//!   │                                     buildings = components
 //!   ├─ roof::assign          → CellRoof per inside cell: roof planes by α-expansion over
 //!   │                                     data and seam terms (supported, or inferred)
 //!   ├─ solid::extrude        → Solid      closed planar polygon surface with provenance
@@ -23,6 +26,7 @@
 //! Scoring ([`score`]) reuses [`crate::metrics`] exactly as `reconstruct` scores its mesh.
 
 pub mod cityjson;
+pub mod enclosure;
 pub mod evidence_edges;
 pub mod footprint;
 mod max_flow;
@@ -50,6 +54,9 @@ pub struct TwinInput<'a> {
     pub voxel_m: f64,
     /// Ground height under the site, metres.
     pub ground_z: f64,
+    /// What each imaging pair saw and where it stood (empty: walls are not oriented and no
+    /// ground counts as enclosed, [`enclosure`]).
+    pub views: &'a [enclosure::PairView],
 }
 
 /// Errors of the twin's construction.
@@ -88,6 +95,10 @@ pub struct Twin {
     pub planes: PlaneSet,
     /// Stage 2 input: the cutting lines.
     pub lines: Vec<SplitLine>,
+    /// Per plane, an oriented wall's open side (unit horizontal normal).
+    pub fronts: Vec<Option<DVec2>>,
+    /// Enclosed ground pixels (one voxel each), footprint evidence.
+    pub enclosed: Vec<DVec2>,
     /// Stage 2.
     pub footprint: Footprint,
     /// Stage 3: one roof per cell (`None` outside).
@@ -197,7 +208,7 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
         m.max(p.as_dvec3().truncate())
     }) + DVec2::splat(extend_m);
     let part = footprint::partition(lo, hi, &lines);
-    let roof_xy: Vec<DVec2> = (0..points.len())
+    let mut roof_xy: Vec<DVec2> = (0..points.len())
         .filter(|&i| set.label[i].is_some_and(|k| set.planes[k as usize].kind == PlaneKind::Roof))
         .map(|i| points[i].as_dvec3().truncate())
         .collect();
@@ -206,6 +217,10 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
         .filter(|l| matches!(l.source, LineSource::Wall(_)))
         .copied()
         .collect();
+    // Ground enclosed between facades seen from outside is footprint evidence like a roof point.
+    let fronts = enclosure::wall_fronts(points, &set, input.views);
+    let enclosed = enclosure::enclosed_ground(&walls, &fronts, input.voxel_m, tol.radius_m);
+    roof_xy.extend_from_slice(&enclosed);
     let terms = footprint::LabelTerms {
         pixel_m: input.voxel_m,
         wall_distance_m: tol.distance_m,
@@ -225,6 +240,8 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
     Ok(Twin {
         planes: set,
         lines,
+        fronts,
+        enclosed,
         footprint: fp,
         roofs,
         solid,
@@ -277,6 +294,12 @@ pub struct TwinReport {
     pub planes: [usize; 3],
     /// Dominant wall directions, degrees (folded into [0, 90)).
     pub dominant_azimuths_deg: Vec<f64>,
+    /// Pair clouds read (what orients the walls).
+    pub pair_views: usize,
+    /// Walls whose open side the pair clouds decided, of all walls.
+    pub oriented_walls: [usize; 2],
+    /// Ground enclosed between facades seen from outside, m².
+    pub enclosed_m2: f64,
     /// Footprint cells and inside cells.
     pub cells: [usize; 2],
     /// Buildings (connected footprints).
@@ -333,6 +356,9 @@ impl TwinReport {
                 .iter()
                 .map(|a| a.to_degrees())
                 .collect(),
+            pair_views: input.views.len(),
+            oriented_walls: [twin.fronts.iter().flatten().count(), count(PlaneKind::Wall)],
+            enclosed_m2: twin.enclosed.len() as f64 * input.voxel_m * input.voxel_m,
             cells: [
                 twin.footprint.inside.len(),
                 twin.footprint.inside.iter().filter(|&&i| i).count(),
@@ -371,6 +397,10 @@ impl TwinReport {
                 .iter()
                 .map(|a| (a * 10.0).round() / 10.0)
                 .collect::<Vec<_>>()
+        );
+        o += &format!(
+            "- walls oriented by {} pair clouds: {} of {}; ground enclosed between their backs: {:.0} m²\n",
+            self.pair_views, self.oriented_walls[0], self.oriented_walls[1], self.enclosed_m2
         );
         o += &format!(
             "- footprint: {} of {} cells inside, {} building(s)\n",

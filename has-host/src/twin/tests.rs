@@ -107,6 +107,7 @@ fn twin_of_synthetic() -> (Twin, Vec<Vec3>) {
         weights: &w,
         voxel_m: VOXEL,
         ground_z: 0.0,
+        views: &[],
     };
     (build(&input).expect("a twin"), t)
 }
@@ -249,6 +250,7 @@ fn bad_input_is_named() {
         weights: &[1.0],
         voxel_m: 0.5,
         ground_z: 0.0,
+        views: &[],
     })
     .unwrap_err();
     assert!(e.to_string().contains("weights"), "{e}");
@@ -257,6 +259,7 @@ fn bad_input_is_named() {
         weights: &[1.0; 3],
         voxel_m: f64::NAN,
         ground_z: 0.0,
+        views: &[],
     })
     .unwrap_err();
     assert!(e.to_string().contains("voxel_m"), "{e}");

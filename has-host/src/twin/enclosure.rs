@@ -1,0 +1,223 @@
+//! Which side of each wall the sensors saw, and the ground enclosed between walls' back sides.
+//!
+//! Ground-plane (x, y) in metres, the run's frame.
+//!
+//! Mechanisms and why:
+//! - **A wall's front.** An echo off a facade reaches the receiver only if the transmitter and
+//!   the receiver both see the face it comes from, so the pairs that imaged a wall stand on its
+//!   open side. Each pair's cloud ([`PairView`]) votes for the side of the wall plane holding its
+//!   base station and the centre of its terminal's track, weighted by how many of the wall's
+//!   points it holds (a point of the pair's cloud within the distance tolerance). A wall is
+//!   oriented when the votes are not tied; its front normal points to the open side.
+//! - **Enclosed ground.** Behind a wall's face is the building's material. From each seen point
+//!   of an oriented wall's trace (one sample per voxel along its seen extent), a ray goes straight
+//!   back, away from the front. If the first other oriented wall it crosses turns its back to the
+//!   ray (its front faces on along the ray), the ray stayed inside one building between two
+//!   facades seen from outside, and the ground it crossed is enclosed: evidence of a footprint
+//!   even where no roof point was seen (a roof turned away from every pair). If that wall faces
+//!   the ray instead, the ray left the building through a face no pair saw, and marks nothing.
+//!   A facade no pair saw can still let a ray through into the street and a neighbour whose far
+//!   facade turns its back to it; such a ray's ground is enclosed along one direction only. So a
+//!   ground pixel (one voxel) counts as enclosed only when rays of two directions at least 45°
+//!   apart cross it: it lies between seen facades both ways.
+//!   Walls are crossed within their seen extent prolonged by the growing radius.
+//! - Nothing here names a shape: any footprint whose facades were seen from outside encloses its
+//!   interior, courtyards included (a courtyard's walls face into the courtyard, so rays stop
+//!   there).
+
+use glam::{DVec2, DVec3, Vec3};
+
+use super::footprint::SplitLine;
+use super::planes::{PlaneKind, PlaneSet};
+use crate::knn::PointIndex;
+
+/// What one imaging pair saw: its cloud and where its two ends stood.
+#[derive(Clone, Debug)]
+pub struct PairView {
+    /// The pair's imaged points, metres.
+    pub points: Vec<Vec3>,
+    /// The base station's panel centre, metres.
+    pub receiver: DVec3,
+    /// The centre of the terminal's track, metres.
+    pub transmitter: DVec3,
+}
+
+/// Fewest of a wall's points a pair must hold to vote on its side.
+pub const MIN_VOTE_POINTS: usize = 3;
+
+/// Per plane (index of `set.planes`), the unit horizontal normal of an oriented wall's open side,
+/// `None` for roofs, the ground and walls the views do not orient.
+pub fn wall_fronts(points: &[Vec3], set: &PlaneSet, views: &[PairView]) -> Vec<Option<DVec2>> {
+    let mut votes = vec![0.0f64; set.planes.len()];
+    let r2 = (set.tol.distance_m * set.tol.distance_m) as f32;
+    for view in views {
+        let Ok(index) = PointIndex::new("pair view", &view.points) else {
+            continue;
+        };
+        for (k, p) in set.planes.iter().enumerate() {
+            if p.kind != PlaneKind::Wall {
+                continue;
+            }
+            let held = p
+                .support
+                .iter()
+                .filter(|&&i| index.nearest(points[i as usize]).1 <= r2)
+                .count();
+            if held < MIN_VOTE_POINTS {
+                continue;
+            }
+            let side = |x: DVec3| (p.n.dot(x) - p.d).signum();
+            votes[k] += held as f64 * (side(view.receiver) + side(view.transmitter));
+        }
+    }
+    set.planes
+        .iter()
+        .zip(&votes)
+        .map(|(p, &v)| {
+            (p.kind == PlaneKind::Wall && v != 0.0).then(|| p.n.truncate().normalize() * v.signum())
+        })
+        .collect()
+}
+
+/// Ground positions (one per voxel step along each ray) enclosed between oriented walls' back
+/// sides (module docs). `traces` are the wall traces, `fronts` the planes' open sides.
+pub fn enclosed_ground(
+    traces: &[SplitLine],
+    fronts: &[Option<DVec2>],
+    voxel_m: f64,
+    reach_m: f64,
+) -> Vec<DVec2> {
+    use super::footprint::LineSource;
+    let oriented: Vec<(&SplitLine, DVec2)> = traces
+        .iter()
+        .filter_map(|l| match l.source {
+            LineSource::Wall(k) => fronts.get(k as usize).copied().flatten().map(|f| (l, f)),
+            _ => None,
+        })
+        .collect();
+    let mut marks: std::collections::HashMap<(i64, i64), u32> = Default::default();
+    for (a, (wall, front)) in oriented.iter().enumerate() {
+        let back = -*front;
+        let steps = ((wall.t1 - wall.t0) / voxel_m).floor().max(0.0) as usize;
+        for s in 0..steps {
+            let start = wall.origin + wall.dir * (wall.t0 + (s as f64 + 0.5) * voxel_m);
+            // First crossing of another oriented wall along the ray.
+            let mut first: Option<(f64, DVec2)> = None;
+            for (b, (other, other_front)) in oriented.iter().enumerate() {
+                if a == b {
+                    continue;
+                }
+                let denom = back.perp_dot(other.dir);
+                if denom.abs() < 1e-9 {
+                    continue; // parallel to the ray
+                }
+                let w = other.origin - start;
+                let t = w.perp_dot(other.dir) / denom; // along the ray
+                let u = w.perp_dot(back) / denom; // along the other wall
+                if t <= voxel_m
+                    || u < other.t0 - reach_m
+                    || u > other.t1 + reach_m
+                    || first.is_some_and(|(best, _)| t >= best)
+                {
+                    continue;
+                }
+                first = Some((t, *other_front));
+            }
+            let Some((t, other_front)) = first else {
+                continue;
+            };
+            if other_front.dot(back) <= 0.0 {
+                continue; // that face looks at the ray: the ray left the building
+            }
+            // Direction bin of the ray, folded over 180°.
+            let bin = ((back.y.atan2(back.x).rem_euclid(std::f64::consts::PI)
+                / std::f64::consts::PI
+                * DIRECTION_BINS as f64) as usize)
+                .min(DIRECTION_BINS - 1);
+            let n = (t / voxel_m).floor() as usize;
+            for i in 0..n {
+                let p = start + back * ((i as f64 + 0.5) * voxel_m);
+                let key = (
+                    (p.x / voxel_m).floor() as i64,
+                    (p.y / voxel_m).floor() as i64,
+                );
+                *marks.entry(key).or_insert(0u32) |= 1 << bin;
+            }
+        }
+    }
+    // Enclosed from two directions at least 45° apart (module docs).
+    let apart = |m: u32| {
+        (0..DIRECTION_BINS).any(|i| {
+            (0..DIRECTION_BINS).any(|j| {
+                let gap = (i + DIRECTION_BINS - j) % DIRECTION_BINS;
+                m & (1 << i) != 0
+                    && m & (1 << j) != 0
+                    && (DIRECTION_BINS / 4..=3 * DIRECTION_BINS / 4).contains(&gap)
+            })
+        })
+    };
+    let mut keys: Vec<(i64, i64)> = marks
+        .iter()
+        .filter(|(_, &m)| apart(m))
+        .map(|(&k, _)| k)
+        .collect();
+    keys.sort_unstable();
+    keys.into_iter()
+        .map(|(i, j)| DVec2::new((i as f64 + 0.5) * voxel_m, (j as f64 + 0.5) * voxel_m))
+        .collect()
+}
+
+/// Ray directions are binned over 180° into this many bins (22.5° each).
+const DIRECTION_BINS: usize = 8;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::twin::footprint::LineSource;
+
+    fn wall(o: (f64, f64), d: (f64, f64), len: f64, k: u32) -> SplitLine {
+        SplitLine {
+            origin: DVec2::new(o.0, o.1),
+            dir: DVec2::new(d.0, d.1),
+            t0: 0.0,
+            t1: len,
+            reach_m: 0.0,
+            source: LineSource::Wall(k),
+        }
+    }
+
+    #[test]
+    fn the_ground_between_two_facades_seen_from_outside_is_enclosed() {
+        // Walls x = 0 (open to −x) and x = 10 (open to +x), 20 m long.
+        let traces = [
+            wall((0.0, 0.0), (0.0, 1.0), 20.0, 0),
+            wall((10.0, 0.0), (0.0, 1.0), 20.0, 1),
+        ];
+        let fronts = [Some(DVec2::NEG_X), Some(DVec2::X)];
+        // Two facades back to back enclose their gap one way only: not enough.
+        assert!(enclosed_ground(&traces, &fronts, 0.5, 1.0).is_empty());
+        // With the two end facades y = 0 (open to −y) and y = 20 (open to +y) the box is closed.
+        let mut box_walls = traces.to_vec();
+        box_walls.push(wall((0.0, 0.0), (1.0, 0.0), 10.0, 2));
+        box_walls.push(wall((0.0, 20.0), (1.0, 0.0), 10.0, 3));
+        let fronts = [
+            Some(DVec2::NEG_X),
+            Some(DVec2::X),
+            Some(DVec2::NEG_Y),
+            Some(DVec2::Y),
+        ];
+        let g = enclosed_ground(&box_walls, &fronts, 0.5, 1.0);
+        assert!(g.len() > 600, "{}", g.len()); // 800 pixels inside, less the rays' last steps
+        assert!(g
+            .iter()
+            .all(|p| p.x > 0.0 && p.x < 10.0 && p.y > 0.0 && p.y < 20.0));
+        // Facades facing each other across streets enclose nothing.
+        let fronts = [
+            Some(DVec2::X),
+            Some(DVec2::NEG_X),
+            Some(DVec2::Y),
+            Some(DVec2::NEG_Y),
+        ];
+        assert!(enclosed_ground(&box_walls, &fronts, 0.5, 1.0).is_empty());
+    }
+}
