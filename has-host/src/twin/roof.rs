@@ -23,6 +23,12 @@
 //!     Where two planes meet on the edge (a ridge, a valley) the face vanishes, so roofs change
 //!     plane where they meet or where a wall was seen.
 //!
+//!   - an *outline term*: the points of a wall plane standing on an edge of the cell on the
+//!     footprint's outline that lie more than two voxels above the roof there are unexplained,
+//!     each costing what a roof point that far off does. A facade seen up to a height carries a
+//!     roof at that height, even where no pair saw the roof itself (a flat roof is seen, if at
+//!     all, only at its rim).
+//!
 //!   The seam term is a metric, so α-expansion (Boykov, Veksler & Zabih 2001) minimises the
 //!   energy by one minimum cut per label and pass. A cell over which no point was seen takes the
 //!   plane its neighbours make cheapest, marked inferred from a neighbour on that plane.
@@ -246,6 +252,27 @@ pub fn assign(
                 .collect()
         })
         .collect();
+    // Wall points along the footprint's outline must lie below the roof there: a wall seen up
+    // to a height is a wall up to that height. A point more than the residuals' truncation
+    // (two voxels) above the roof is unexplained and costs what a roof point that far off does.
+    let mut data = data;
+    let outline = outline_wall_points(fp, points, set);
+    for (c, pts) in outline.iter().enumerate() {
+        if pts.is_empty() {
+            continue;
+        }
+        for (j, &k) in labels.iter().enumerate() {
+            let Some(v) = data[c][j].as_mut() else {
+                continue;
+            };
+            let r = roof_of(k);
+            let above = pts
+                .iter()
+                .filter(|q| q.z > r.z_at(q.truncate()) + RESIDUAL_CAP.sqrt() * sigma)
+                .count();
+            *v += area * RESIDUAL_CAP * above as f64;
+        }
+    }
     // Shared edges between inside cells of one building, with their wall support.
     let nb = fp.partition.neighbours();
     let mut shared: HashMap<(usize, usize), Vec<SeamEdge>> = HashMap::new();
@@ -489,6 +516,72 @@ fn locate(fp: &Footprint, points: &[Vec3], set: &PlaneSet) -> Vec<Vec<u32>> {
                 && fp.partition.contains(c, q)
         }) {
             out[c as usize].push(i as u32);
+        }
+    }
+    out
+}
+
+/// For each inside cell, the points of the wall planes standing on its edges on the footprint's
+/// outline (where the other side is outside) within the distance tolerance of the edge, as
+/// (x, y, z).
+fn outline_wall_points(fp: &Footprint, points: &[Vec3], set: &PlaneSet) -> Vec<Vec<DVec3>> {
+    let n = fp.partition.cells.len();
+    let mut out = vec![Vec::new(); n];
+    let pixel = set.tol.voxel_m;
+    let key = |p: DVec2| ((p.x / pixel).floor() as i64, (p.y / pixel).floor() as i64);
+    let mut grid: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
+    for (i, p) in points.iter().enumerate() {
+        if set.label[i].is_some_and(|k| set.planes[k as usize].kind == PlaneKind::Wall) {
+            grid.entry(key(p.as_dvec3().truncate()))
+                .or_default()
+                .push(i as u32);
+        }
+    }
+    let nb = fp.partition.neighbours();
+    let reach = set.tol.distance_m;
+    let span = (reach / pixel).ceil() as i64 + 1;
+    for c in 0..n {
+        if !fp.inside[c] {
+            continue;
+        }
+        let ring = fp.partition.ring(c);
+        let mut seen = std::collections::HashSet::new();
+        for k in 0..ring.len() {
+            if nb[c][k].is_some_and(|d| fp.inside[d as usize]) {
+                continue;
+            }
+            let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
+            let len = a.distance(b);
+            if len <= 0.0 {
+                continue;
+            }
+            let dir = (b - a) / len;
+            // The wall planes standing on this edge: their trace along it (both ends within the
+            // distance tolerance of the plane). Points of other walls near the edge (a taller
+            // neighbour's, a ghost between two buildings) say nothing about this roof.
+            let on_edge = |k: u32| {
+                let p = &set.planes[k as usize];
+                p.kind == PlaneKind::Wall
+                    && p.distance(a.extend(0.0)).abs() <= reach
+                    && p.distance(b.extend(0.0)).abs() <= reach
+            };
+            let steps = (len / pixel).ceil() as usize;
+            for s in 0..=steps {
+                let (kx, ky) = key(a + dir * (s as f64 * pixel).min(len));
+                for dx in -span..=span {
+                    for dy in -span..=span {
+                        for &i in grid.get(&(kx + dx, ky + dy)).into_iter().flatten() {
+                            let q = points[i as usize].as_dvec3();
+                            let t = dir.dot(q.truncate() - a);
+                            let off = dir.perp_dot(q.truncate() - a).abs();
+                            let own = set.label[i as usize].is_some_and(on_edge);
+                            if own && (0.0..=len).contains(&t) && off <= reach && seen.insert(i) {
+                                out[c].push(q);
+                            }
+                        }
+                    }
+                }
+            }
         }
     }
     out
