@@ -27,15 +27,22 @@ use crate::run_dir::RunDir;
 pub struct TwinArgs {
     /// A finished `reconstruct` run directory (report.json, fused.ply, ground_truth.ply).
     pub run_dir: PathBuf,
-    /// Output directory (twin.obj, twin.ply, twin.city.json, twin_report.json, twin_report.md).
+    /// Output directory (twin.obj, twin.ply, twin.city.json, twin.xml with twin_building_*.ply,
+    /// twin_report.json, twin_report.md).
     #[arg(long)]
     pub out: PathBuf,
     /// The run's scenario file, when the path report.json records does not resolve from here.
     #[arg(long)]
     pub scenario: Option<PathBuf>,
+    /// The ITU radio material of every face of the Sionna RT scene (`twin.xml`): the twin
+    /// estimates none (`concrete`, `itu_metal`, … as Sionna RT names them).
+    #[arg(long, default_value = "concrete")]
+    pub material: String,
 }
 
-const OUTPUTS: [&str; 5] = [
+const OUTPUTS: [&str; 7] = [
+    "twin.xml",
+    "twin_building_*.ply",
     "twin.obj",
     "twin.ply",
     "twin.city.json",
@@ -64,6 +71,16 @@ fn number(report: &Value, path: &Path, key: &str) -> Result<f64> {
 /// # Errors
 /// One line naming the file and field or value at fault.
 pub fn run(a: TwinArgs) -> Result<()> {
+    let material = has_host::material::Material::from_name(&a.material).ok_or_else(|| {
+        anyhow!(
+            "--material = {}: not an ITU radio material (one of {})",
+            a.material,
+            has_host::material::Material::all()
+                .map(|m| m.name())
+                .collect::<Vec<_>>()
+                .join(", ")
+        )
+    })?;
     let report_path = a.run_dir.join("report.json");
     let text = has_host::io::guard::read_input_string(&report_path)
         .with_context(|| format!("reading {}", report_path.display()))?;
@@ -198,6 +215,7 @@ pub fn run(a: TwinArgs) -> Result<()> {
         faces: tri.faces.clone(),
     };
     let city = serde_json::to_vec(&cityjson::document(solid))?;
+    let radio = twin::sionna::scene(solid, material);
     let json =
         serde_json::to_vec_pretty(&serde_json::json!({ "twin": rep, "build_seconds": build_s }))?;
     let md = rep.render();
@@ -212,6 +230,11 @@ pub fn run(a: TwinArgs) -> Result<()> {
         &ply_data,
         PlyFormat::BinaryLittleEndian,
     )?;
+    for (file, mesh) in &radio.meshes {
+        ply::write_ply(&a.out.join(file), mesh, PlyFormat::BinaryLittleEndian)?;
+    }
+    // The scene last: it names the meshes.
+    has_host::io::write_files(&[(a.out.join("twin.xml"), radio.xml.into_bytes())])?;
     run_dir.finish()?;
     print!("{md}");
     println!("built in {build_s:.1} s; wrote {}", a.out.display());

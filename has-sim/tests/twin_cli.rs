@@ -101,6 +101,8 @@ fn twin_of_a_block_is_written_in_every_format_and_scored() {
     for f in [
         "twin.obj",
         "twin.ply",
+        "twin.xml",
+        "twin_building_0.ply",
         "twin.city.json",
         "twin_report.json",
         "twin_report.md",
@@ -123,6 +125,100 @@ fn twin_of_a_block_is_written_in_every_format_and_scored() {
     let cd = t["twin"]["cloud"]["sqrt_chamfer_m"].as_f64().unwrap();
     assert!(cd < 0.5, "√CD {cd}");
     assert_eq!(t["mesh"]["faces"], 1000);
+}
+
+/// The Sionna RT scene reads back as one building whose triangles cover the twin's walls and
+/// roof (the block's 16 × 10 roof and 2 · (16 + 10) · 8 walls, within the twin's error), and
+/// `has-sim paths` on it finds the reflection off the block's south facade (y = −5).
+#[test]
+fn the_sionna_scene_reads_back_and_reflects() {
+    let run = run_dir("xml", 0.5, true);
+    let out = run.join("twin");
+    let (ok, _, stderr) = has_sim(&[
+        "twin",
+        run.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+        "--material",
+        "itu_brick",
+    ]);
+    assert!(ok, "{stderr}");
+    let objects = has_host::io::mitsuba::read_mitsuba(&out.join("twin.xml")).unwrap();
+    assert_eq!(objects.len(), 1);
+    assert_eq!(objects[0].name, "building_0");
+    assert_eq!(objects[0].material.name(), "brick");
+    let area: f64 = objects[0]
+        .triangles
+        .iter()
+        .map(|t| has_host::metrics::triangle_area(t) as f64)
+        .sum();
+    let truth = 16.0 * 10.0 + 2.0 * (16.0 + 10.0) * 8.0;
+    assert!(
+        (area - truth).abs() < 0.1 * truth,
+        "area {area} m², truth {truth} m²"
+    );
+    let xml = out.join("twin.xml");
+    let (ok, stdout, stderr) = has_sim(&[
+        "paths",
+        "--scene",
+        xml.to_str().unwrap(),
+        "--tx",
+        "-4,-25,4",
+        "--rx",
+        "4,-25,4",
+        "--json",
+    ]);
+    assert!(ok, "{stderr}");
+    let v: serde_json::Value = serde_json::from_str(&stdout).unwrap();
+    let paths = v["paths"].as_array().unwrap();
+    let p = paths
+        .iter()
+        .find(|p| p["interactions"] == serde_json::json!(["reflection"]))
+        .unwrap_or_else(|| panic!("no single reflection in {stdout}"));
+    assert_eq!(p["objects"][0], "building_0", "{p}");
+    let y = p["points"][0][1].as_f64().unwrap();
+    assert!((y + 5.0).abs() < 0.5, "reflection point y = {y}");
+}
+
+/// Where an interpreter with Sionna RT is named by `HAS_PYTHON`, Sionna RT loads twin.xml with
+/// its material; where `cjval` is on the PATH, twin.city.json validates against the CityJSON
+/// 2.0 schema. Each check says it skipped when its tool is absent.
+#[test]
+fn sionna_rt_loads_the_scene_and_cjval_validates_the_cityjson_when_present() {
+    let run = run_dir("peers", 0.5, true);
+    let out = run.join("twin");
+    let (ok, _, stderr) = has_sim(&[
+        "twin",
+        run.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(ok, "{stderr}");
+    match std::env::var("HAS_PYTHON") {
+        Ok(python) => {
+            let script = format!(
+                "import sionna.rt as rt\ns = rt.load_scene({:?})\nprint(sorted(o.radio_material.name for o in s.objects.values()))",
+                out.join("twin.xml").to_str().unwrap()
+            );
+            let o = Command::new(python).args(["-c", &script]).output().unwrap();
+            let text = String::from_utf8_lossy(&o.stdout);
+            assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+            assert!(text.contains("itu_concrete"), "{text}");
+        }
+        Err(_) => eprintln!("skipped: HAS_PYTHON (an interpreter with sionna-rt) is not set"),
+    }
+    match Command::new("cjval")
+        .arg(out.join("twin.city.json"))
+        .output()
+    {
+        Ok(o) => {
+            let text = String::from_utf8_lossy(&o.stdout).into_owned()
+                + &String::from_utf8_lossy(&o.stderr);
+            assert!(o.status.success(), "{text}");
+            assert!(!text.contains("INVALID"), "{text}");
+        }
+        Err(_) => eprintln!("skipped: cjval is not on the PATH"),
+    }
 }
 
 #[test]

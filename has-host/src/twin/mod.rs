@@ -18,7 +18,8 @@
 //!   ├─ roof::assign          → CellRoof per inside cell: roof planes by α-expansion over
 //!   │                                     data and seam terms (supported, or inferred)
 //!   ├─ solid::extrude        → Solid      closed planar polygon surface with provenance
-//!   └─ cityjson::document    → CityJSON 2.0 (one LoD2 Building per footprint)
+//!   ├─ cityjson::document    → CityJSON 2.0 (one LoD2 Building per footprint)
+//!   └─ sionna::scene         → Sionna RT / Mitsuba 3 XML, one PLY mesh per building
 //! ```
 //!
 //! No rule names a shape class: footprints are whatever cells the wall lines cut and the roof
@@ -32,6 +33,7 @@ pub mod footprint;
 mod max_flow;
 pub mod planes;
 pub mod roof;
+pub mod sionna;
 pub mod solid;
 
 use glam::{DVec2, Vec3};
