@@ -136,6 +136,55 @@ pub fn wall_traces(points: &[Vec3], set: &PlaneSet) -> Vec<SplitLine> {
         .collect()
 }
 
+/// The parts of line `e` not running beside a line of `others`: parallel within 1°, within
+/// `distance_m` of it, inside its extent prolonged by its reach. Parts shorter than
+/// [`evidence_edges::MIN_RUN_VOXELS`] voxels are dropped.
+fn clear_of(e: &SplitLine, others: &[SplitLine], distance_m: f64, voxel_m: f64) -> Vec<SplitLine> {
+    let mut covered: Vec<(f64, f64)> = Vec::new();
+    for w in others {
+        if e.dir.perp_dot(w.dir).abs() > 1f64.to_radians().sin() {
+            continue;
+        }
+        let m = w.dir.perp();
+        if m.dot(e.origin + e.dir * e.t0 - w.origin).abs() > distance_m
+            || m.dot(e.origin + e.dir * e.t1 - w.origin).abs() > distance_m
+        {
+            continue;
+        }
+        // w's span in e's parameter.
+        let at = |t: f64| e.dir.dot(w.origin + w.dir * t - e.origin);
+        let (a, b) = (at(w.t0 - w.reach_m), at(w.t1 + w.reach_m));
+        covered.push((a.min(b), a.max(b)));
+    }
+    covered.sort_by(|x, y| x.0.total_cmp(&y.0));
+    let mut out = Vec::new();
+    let mut t = e.t0;
+    let min_len = evidence_edges::MIN_RUN_VOXELS as f64 * voxel_m;
+    let mut push = |lo: f64, hi: f64| {
+        if hi - lo >= min_len {
+            out.push(SplitLine {
+                t0: lo,
+                t1: hi,
+                ..*e
+            });
+        }
+    };
+    for (lo, hi) in covered {
+        if hi <= t {
+            continue;
+        }
+        if lo >= e.t1 {
+            break;
+        }
+        push(t, lo.min(e.t1));
+        t = t.max(hi);
+    }
+    if t < e.t1 {
+        push(t, e.t1);
+    }
+    out
+}
+
 /// Where roof evidence ends ([`evidence_edges`]): the edges of all roof points together and of
 /// each roof plane with at least [`roof::MEET_SUPPORT`] points.
 pub fn roof_edges(points: &[Vec3], set: &PlaneSet) -> Vec<SplitLine> {
@@ -201,7 +250,13 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
     let set = planes::detect(points, weights, input.ground_z, tol)?;
     let mut lines = wall_traces(points, &set);
     lines.extend(roof::meet_lines(points, &set));
-    lines.extend(roof_edges(points, &set));
+    // An edge of roof evidence beside a parallel wall trace is that wall's top seen from above,
+    // quantised to the raster: the wall's plane places it better.
+    let edges: Vec<SplitLine> = roof_edges(points, &set)
+        .into_iter()
+        .flat_map(|e| clear_of(&e, &lines, tol.distance_m, tol.voxel_m))
+        .collect();
+    lines.extend(edges);
     let extend_m = footprint::EXTEND_VOXELS * input.voxel_m;
     let lo = points.iter().fold(DVec2::splat(f64::MAX), |m, p| {
         m.min(p.as_dvec3().truncate())
@@ -223,9 +278,11 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
     let fronts = enclosure::wall_fronts(points, &set, input.views);
     let enclosed = enclosure::enclosed_ground(&walls, &fronts, input.voxel_m, tol.radius_m);
     roof_xy.extend_from_slice(&enclosed);
+    // Partition edges on a wall's trace lie on it exactly; an edge a quarter of the distance
+    // tolerance off is another line (a roof edge, a meet line) beside the wall.
     let terms = footprint::LabelTerms {
         pixel_m: input.voxel_m,
-        wall_distance_m: tol.distance_m,
+        wall_distance_m: 0.25 * tol.distance_m,
         wall_reach_m: tol.radius_m,
     };
     let fp = footprint::label(part, &roof_xy, &walls, &terms);
