@@ -19,8 +19,12 @@
 //! - 3-D vertices are shared by ground vertex and height (to [`HEIGHT_QUANTUM_M`]).
 //!
 //! Every edge is then used by one face on each side with opposite directions, except where
-//! heights around one ground vertex alternate up and down more than once (then that vertical
-//! edge has four faces) — counted by [`crate::mesh::TriMesh::topology`] and reported.
+//! heights around one ground vertex alternate up and down more than once: two higher cells
+//! diagonal across the vertex touch along a vertical edge that four walls share. There the
+//! upper vertex is split, one copy per fan of faces around it, and so is any vertex where two
+//! parts touch at a point: the surface is a closed 2-manifold whose parts may touch along
+//! coincident edges, the geometry unchanged ([`crate::mesh::TriMesh::topology`] checks it).
+//! Coplanar neighbouring faces are then merged into polygons.
 
 use std::collections::HashMap;
 
@@ -129,6 +133,14 @@ fn split_crossings(fp: &mut Footprint, roofs: &[Option<CellRoof>]) {
     }
 }
 
+/// A height's 3-D vertex key at one ground vertex: heights in one [`HEIGHT_QUANTUM_M`] step are
+/// one vertex. The levels a wall's side holds are deduplicated and chosen by the same key (every
+/// key strictly between its ends), so two heights under a millimetre apart that fall into two
+/// keys stay two vertices on every face that passes them.
+fn quantum(z: f64) -> i64 {
+    (z / HEIGHT_QUANTUM_M).round() as i64
+}
+
 struct Vertices {
     map: HashMap<(u32, i64), u32>,
     pos: Vec<DVec3>,
@@ -136,7 +148,7 @@ struct Vertices {
 
 impl Vertices {
     fn id(&mut self, v: u32, xy: DVec2, z: f64) -> u32 {
-        let key = (v, (z / HEIGHT_QUANTUM_M).round() as i64);
+        let key = (v, quantum(z));
         let pos = &mut self.pos;
         *self.map.entry(key).or_insert_with(|| {
             pos.push(xy.extend(z));
@@ -192,7 +204,7 @@ pub fn extrude(fp: &Footprint, roofs: &[Option<CellRoof>], set: &PlaneSet, groun
     }
     for l in levels.iter_mut() {
         l.sort_by(|a, b| a.total_cmp(b));
-        l.dedup_by(|a, b| (*a - *b).abs() < HEIGHT_QUANTUM_M);
+        l.dedup_by_key(|z| quantum(*z));
     }
     let mut vx = Vertices {
         map: HashMap::new(),
@@ -252,7 +264,7 @@ pub fn extrude(fp: &Footprint, roofs: &[Option<CellRoof>], set: &PlaneSet, groun
             let mut w = vec![vx.id(a, xy(a), la), vx.id(b, xy(b), lb)];
             for &z in levels[b as usize]
                 .iter()
-                .filter(|&&z| z > lb + HEIGHT_QUANTUM_M / 2.0 && z < hb - HEIGHT_QUANTUM_M / 2.0)
+                .filter(|&&z| quantum(z) > quantum(lb) && quantum(z) < quantum(hb))
             {
                 w.push(vx.id(b, xy(b), z));
             }
@@ -261,7 +273,7 @@ pub fn extrude(fp: &Footprint, roofs: &[Option<CellRoof>], set: &PlaneSet, groun
             for &z in levels[a as usize]
                 .iter()
                 .rev()
-                .filter(|&&z| z > la + HEIGHT_QUANTUM_M / 2.0 && z < ha - HEIGHT_QUANTUM_M / 2.0)
+                .filter(|&&z| quantum(z) > quantum(la) && quantum(z) < quantum(ha))
             {
                 w.push(vx.id(a, xy(a), z));
             }
@@ -301,8 +313,133 @@ pub fn extrude(fp: &Footprint, roofs: &[Option<CellRoof>], set: &PlaneSet, groun
         faces,
         buildings: fp.buildings,
     };
+    unglue_nonmanifold_edges(&mut solid);
+    unglue_nonmanifold_vertices(&mut solid);
     merge_coplanar(&mut solid);
     solid
+}
+
+/// Where two parts of the solid touch along a vertical edge only (heights around one ground
+/// vertex going up and down twice: two higher cells diagonal across it), four faces share that
+/// edge. The upper vertex of each such edge is split into one copy per fan of faces around it
+/// (faces joined through edges that two faces share), so each part has its own copy of the
+/// edge: the surface becomes a 2-manifold whose two parts touch along coincident edges, the
+/// geometry unchanged. Repeated for stacked edges until none is left (or no split helps).
+fn unglue_nonmanifold_edges(solid: &mut Solid) {
+    for _ in 0..8 {
+        let uses = edge_uses(solid);
+        let mut tops: Vec<u32> = uses
+            .iter()
+            .filter(|(_, &n)| n > 2)
+            .map(|(&(a, b), _)| {
+                if solid.vertices[a as usize].z >= solid.vertices[b as usize].z {
+                    a
+                } else {
+                    b
+                }
+            })
+            .collect();
+        tops.sort_unstable();
+        tops.dedup();
+        if tops.is_empty() {
+            return;
+        }
+        if !split_by_fans(solid, &tops) {
+            return;
+        }
+    }
+}
+
+/// Splits each vertex of `candidates` into one copy per fan of the faces around it (faces
+/// joined through an edge `uses` counts exactly two faces on); whether any was split.
+fn split_by_fans(solid: &mut Solid, candidates: &[u32]) -> bool {
+    let mut uses = edge_uses(solid);
+    let mut incident: HashMap<u32, Vec<usize>> = HashMap::new();
+    for (i, f) in solid.faces.iter().enumerate() {
+        for &x in &f.ring {
+            incident.entry(x).or_default().push(i);
+        }
+    }
+    let mut split_any = false;
+    for &v in candidates {
+        {
+            // Faces around v and, for each, its two edges at v.
+            let mut around: Vec<usize> = incident.get(&v).cloned().unwrap_or_default();
+            around.sort_unstable();
+            around.dedup();
+            let mut parent: Vec<usize> = (0..around.len()).collect();
+            fn root(p: &mut [usize], mut i: usize) -> usize {
+                while p[i] != i {
+                    p[i] = p[p[i]];
+                    i = p[i];
+                }
+                i
+            }
+            let mut by_edge: HashMap<(u32, u32), Vec<usize>> = HashMap::new();
+            for (j, &i) in around.iter().enumerate() {
+                let r = &solid.faces[i].ring;
+                let k = r.iter().position(|&x| x == v).expect("face holds v");
+                let (prev, next) = (r[(k + r.len() - 1) % r.len()], r[(k + 1) % r.len()]);
+                for x in [prev, next] {
+                    by_edge.entry((v.min(x), v.max(x))).or_default().push(j);
+                }
+            }
+            for (e, js) in &by_edge {
+                if uses.get(e) == Some(&2) && js.len() == 2 {
+                    let (a, b) = (root(&mut parent, js[0]), root(&mut parent, js[1]));
+                    parent[a.max(b)] = a.min(b);
+                }
+            }
+            let mut fans: Vec<usize> = (0..around.len()).map(|j| root(&mut parent, j)).collect();
+            let mut ids: Vec<usize> = fans.clone();
+            ids.sort_unstable();
+            ids.dedup();
+            if ids.len() < 2 {
+                continue;
+            }
+            split_any = true;
+            let pos = solid.vertices[v as usize];
+            for &fan in &ids[1..] {
+                let copy = solid.vertices.len() as u32;
+                solid.vertices.push(pos);
+                for (j, &i) in around.iter().enumerate() {
+                    if fans[j] == fan {
+                        let r = &mut solid.faces[i].ring;
+                        let k = r.iter().position(|&x| x == v).expect("face holds v");
+                        let (prev, next) = (r[(k + r.len() - 1) % r.len()], r[(k + 1) % r.len()]);
+                        r[k] = copy;
+                        // Keep the edge counts current for the vertices split after this one.
+                        for x in [prev, next] {
+                            if let Some(n) = uses.get_mut(&(v.min(x), v.max(x))) {
+                                *n -= 1;
+                            }
+                            *uses.entry((copy.min(x), copy.max(x))).or_default() += 1;
+                        }
+                        fans[j] = usize::MAX;
+                    }
+                }
+            }
+        }
+    }
+    split_any
+}
+
+/// Splits every vertex whose faces form more than one fan (two parts touching at a point).
+fn unglue_nonmanifold_vertices(solid: &mut Solid) {
+    let all: Vec<u32> = (0..solid.vertices.len() as u32).collect();
+    split_by_fans(solid, &all);
+}
+
+/// How many faces use each undirected edge.
+fn edge_uses(solid: &Solid) -> HashMap<(u32, u32), usize> {
+    let mut uses: HashMap<(u32, u32), usize> = HashMap::new();
+    for f in &solid.faces {
+        for k in 0..f.ring.len() {
+            let (a, b) = (f.ring[k], f.ring[(k + 1) % f.ring.len()]);
+            *uses.entry((a.min(b), a.max(b))).or_default() += 1;
+        }
+    }
+    uses
 }
 
 /// The boundary (vertex → next vertex) of a piece after absorbing the face `ring`, if it is
@@ -669,4 +806,65 @@ fn ear_clip(vertices: &[DVec3], ring: &[u32]) -> Vec<[u32; 3]> {
     }
     out.push([idx[0], idx[1], idx[2]]);
     out
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::twin::footprint::{partition, LineSource, SplitLine};
+    use crate::twin::planes::Tolerances;
+
+    /// A 2 × 2 block of 10 m cells, the two diagonal ones 12 m high and the other two 6 m: the
+    /// tall parts touch along one vertical edge, which four walls would share.
+    #[test]
+    fn cells_touching_along_a_vertical_edge_make_a_closed_2_manifold() {
+        let line = |o: (f64, f64), d: (f64, f64)| SplitLine {
+            origin: DVec2::new(o.0, o.1),
+            dir: DVec2::new(d.0, d.1),
+            t0: -100.0,
+            t1: 100.0,
+            reach_m: 0.0,
+            source: LineSource::Wall(0),
+        };
+        let part = partition(
+            DVec2::splat(-10.0),
+            DVec2::splat(10.0),
+            &[line((0.0, 0.0), (1.0, 0.0)), line((0.0, 0.0), (0.0, 1.0))],
+        );
+        assert_eq!(part.cells.len(), 4);
+        let n = part.cells.len();
+        let fp = Footprint {
+            roof_share: vec![1.0; n],
+            inside: vec![true; n],
+            building: vec![Some(0); n],
+            buildings: 1,
+            partition: part.clone(),
+        };
+        let roofs: Vec<Option<CellRoof>> = (0..n)
+            .map(|c| {
+                let ring = part.ring(c);
+                let centre = ring.iter().copied().sum::<DVec2>() / ring.len() as f64;
+                let high = (centre.x > 0.0) == (centre.y > 0.0);
+                Some(CellRoof {
+                    n: DVec3::Z,
+                    d: if high { 12.0 } else { 6.0 },
+                    plane: None,
+                    support: 0,
+                    inferred_from: Some(None),
+                })
+            })
+            .collect();
+        let set = PlaneSet {
+            planes: Vec::new(),
+            label: Vec::new(),
+            dominant_azimuths: Vec::new(),
+            tol: Tolerances::from_voxel(0.5),
+        };
+        let solid = extrude(&fp, &roofs, &set, 0.0);
+        let (mesh, _) = solid.triangulate(|_| true);
+        let t = mesh.topology();
+        assert!(t.watertight && t.manifold, "{t:?}");
+        // 20 × 20 × 6 plus two 10 × 10 × 6 towers.
+        assert!((solid.signed_volume_m3() - 3600.0).abs() < 1e-6);
+    }
 }
