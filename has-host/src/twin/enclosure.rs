@@ -21,6 +21,13 @@
 //!   ground pixel (one voxel) counts as enclosed only when rays of two directions at least 45°
 //!   apart cross it: it lies between seen facades both ways.
 //!   Walls are crossed within their seen extent prolonged by the growing radius.
+//! - **Open ground.** An echo's path is free space: from each point of an oriented wall a pair
+//!   imaged, the sight lines to the pair's base station and to the centre of its terminal's
+//!   track (when on the wall's open side) cross the ground below them. Where such a line passes
+//!   lower than the lowest roof plane of the site (less one voxel), no building stands under it
+//!   (a building reaches at least that high, and would have blocked the line): the footprint's
+//!   cut counts that ground against being inside as a roof point counts for it. A street or an
+//!   alley between two facades is then kept open even where no roof edge bounds it.
 //! - Nothing here names a shape: any footprint whose facades were seen from outside encloses its
 //!   interior, courtyards included (a courtyard's walls face into the courtyard, so rays stop
 //!   there).
@@ -76,6 +83,66 @@ pub fn wall_fronts(points: &[Vec3], set: &PlaneSet, views: &[PairView]) -> Vec<O
         .map(|(p, &v)| {
             (p.kind == PlaneKind::Wall && v != 0.0).then(|| p.n.truncate().normalize() * v.signum())
         })
+        .collect()
+}
+
+/// Ground seen through: the pixels (centres, on the raster of `pixel_m`) under the sight lines
+/// from each wall point a pair imaged to that pair's two ends, where the line passes lower than
+/// `below_m` (the lowest roof): no building stands there, or the line would have been blocked.
+/// Only oriented walls whose open side holds the sensor count, and the line is walked from one
+/// and a half pixels off the wall (the wall's own pixel is not open).
+pub fn open_ground(
+    points: &[Vec3],
+    set: &PlaneSet,
+    views: &[PairView],
+    fronts: &[Option<DVec2>],
+    below_m: f64,
+    pixel_m: f64,
+) -> Vec<DVec2> {
+    let r2 = (set.tol.distance_m * set.tol.distance_m) as f32;
+    let key = |p: DVec2| {
+        (
+            (p.x / pixel_m).floor() as i64,
+            (p.y / pixel_m).floor() as i64,
+        )
+    };
+    let mut open: std::collections::HashSet<(i64, i64)> = Default::default();
+    for view in views {
+        let Ok(index) = PointIndex::new("pair view", &view.points) else {
+            continue;
+        };
+        for (k, p) in set.planes.iter().enumerate() {
+            let Some(front) = fronts.get(k).copied().flatten() else {
+                continue;
+            };
+            for &i in &p.support {
+                let q = points[i as usize].as_dvec3();
+                if q.z >= below_m || index.nearest(points[i as usize]).1 > r2 {
+                    continue;
+                }
+                for sensor in [view.receiver, view.transmitter] {
+                    let d = sensor - q;
+                    let run = d.truncate().length();
+                    if run <= 0.0 || d.truncate().dot(front) <= 0.0 {
+                        continue;
+                    }
+                    let mut t = 1.5 * pixel_m;
+                    while t < run {
+                        let at = q + d * (t / run);
+                        if at.z >= below_m {
+                            break;
+                        }
+                        open.insert(key(at.truncate()));
+                        t += pixel_m;
+                    }
+                }
+            }
+        }
+    }
+    let mut keys: Vec<(i64, i64)> = open.into_iter().collect();
+    keys.sort_unstable();
+    keys.into_iter()
+        .map(|(i, j)| DVec2::new((i as f64 + 0.5) * pixel_m, (j as f64 + 0.5) * pixel_m))
         .collect()
 }
 
@@ -174,6 +241,7 @@ const DIRECTION_BINS: usize = 8;
 mod tests {
     use super::*;
     use crate::twin::footprint::LineSource;
+    use crate::twin::planes::PlaneSet;
 
     fn wall(o: (f64, f64), d: (f64, f64), len: f64, k: u32) -> SplitLine {
         SplitLine {
@@ -184,6 +252,47 @@ mod tests {
             reach_m: 0.0,
             source: LineSource::Wall(k),
         }
+    }
+
+    #[test]
+    fn sight_lines_from_a_seen_wall_open_the_ground_in_front_of_it_only() {
+        use crate::twin::planes::{Plane, Tolerances};
+        // A wall x = 0 seen at z 0.5–3 m over y ∈ [−2, 2] by a pair standing at x = 20 (both
+        // ends); the lowest roof is at 8 m.
+        let pts: Vec<Vec3> = (0..9)
+            .flat_map(|j| {
+                (1..7).map(move |k| Vec3::new(0.0, -2.0 + 0.5 * j as f32, 0.5 * k as f32))
+            })
+            .collect();
+        let set = PlaneSet {
+            planes: vec![Plane {
+                n: DVec3::X,
+                d: 0.0,
+                support: (0..pts.len() as u32).collect(),
+                weight: 1.0,
+                kind: PlaneKind::Wall,
+                snapped: true,
+            }],
+            label: vec![Some(0); pts.len()],
+            dominant_azimuths: vec![0.0],
+            tol: Tolerances::from_voxel(0.5),
+        };
+        let view = PairView {
+            points: pts.clone(),
+            receiver: DVec3::new(20.0, 0.0, 1.5),
+            transmitter: DVec3::new(20.0, 1.0, 1.5),
+        };
+        let fronts = [Some(DVec2::X)];
+        let open = open_ground(&pts, &set, &[view.clone()], &fronts, 8.0, 0.5);
+        assert!(open.len() > 100, "{}", open.len());
+        assert!(open.iter().all(|p| p.x > 0.5 && p.x < 20.0), "{open:?}");
+        // Sensors behind the wall (its closed side) see nothing through it.
+        let behind = PairView {
+            receiver: DVec3::new(-20.0, 0.0, 1.5),
+            transmitter: DVec3::new(-20.0, 1.0, 1.5),
+            ..view
+        };
+        assert!(open_ground(&pts, &set, &[behind], &fronts, 8.0, 0.5).is_empty());
     }
 
     #[test]

@@ -20,7 +20,9 @@
 //!   holding a roof-plane point, widened by one pixel (the spacing of a sparse voxel sample); a
 //!   cell's share `s` is the share of marked pixel centres inside it. Data terms: calling a cell
 //!   outside costs its roof-covered area `s·A`; calling it inside costs its bare area
-//!   `(1 − s)·A` times [`BARE_INSIDE_COST`] (an unseen roof is common, a seen roof where there is
+//!   `(1 − s)·A` times [`BARE_INSIDE_COST`], plus its share `o` of ground a sight line crossed
+//!   low ([`super::enclosure::open_ground`]) times `A` times [`OPEN_INSIDE_COST`] (an unseen
+//!   roof is common, a seen roof where there is
 //!   none rare). Complexity term: each metre of outline between an inside and an outside cell
 //!   (the site box's border counts as outside) costs [`OUTLINE_COST_M`] times the share of it no
 //!   wall trace supports, plus 1 % of it even where a wall does (of two equal cuts, the shorter).
@@ -42,6 +44,9 @@ pub const WELD_M: f64 = 1e-4;
 /// roof-covered ground outside: the sensors miss many roofs (no UAV pair, a roof turned away),
 /// so a missing roof is weaker evidence than a seen one.
 pub const BARE_INSIDE_COST: f64 = 0.25;
+/// Cost of calling ground a sight line crossed low inside, per m² ([`super::enclosure::open_ground`]):
+/// as strong as a roof point is for the other label.
+pub const OPEN_INSIDE_COST: f64 = 1.0;
 /// Cost of one metre of footprint outline that no wall supports, in m² of the data terms, per
 /// metre of outline: a strip this wide of wrongly labelled ground costs as much as one metre of
 /// outline nothing was seen on (the complexity term).
@@ -87,6 +92,7 @@ fn min_cut_labels(
     part: &Partition,
     nb: &[Vec<Option<u32>>],
     share: &[f64],
+    open: &[f64],
     walls: &[SplitLine],
     terms: &LabelTerms,
 ) -> Vec<bool> {
@@ -96,7 +102,8 @@ fn min_cut_labels(
     for c in 0..n {
         let area = part.area(c);
         g.add(s, c, area * share[c], 0.0);
-        let mut to_sink = BARE_INSIDE_COST * area * (1.0 - share[c]);
+        let mut to_sink =
+            BARE_INSIDE_COST * area * (1.0 - share[c]) + OPEN_INSIDE_COST * area * open[c];
         let ring = &part.cells[c];
         for k in 0..ring.len() {
             let (a, b) = (
@@ -386,9 +393,19 @@ pub struct Footprint {
 pub fn label(
     partition: Partition,
     roof_xy: &[DVec2],
+    open_xy: &[DVec2],
     walls: &[SplitLine],
     terms: &LabelTerms,
 ) -> Footprint {
+    let open: std::collections::HashSet<(i64, i64)> = open_xy
+        .iter()
+        .map(|p| {
+            (
+                (p.x / terms.pixel_m).floor() as i64,
+                (p.y / terms.pixel_m).floor() as i64,
+            )
+        })
+        .collect();
     let pixel_m = terms.pixel_m;
     let mut marked: std::collections::HashSet<(i64, i64)> = std::collections::HashSet::new();
     let key = |p: DVec2| {
@@ -407,18 +424,20 @@ pub fn label(
     }
     let n = partition.cells.len();
     let mut roof_share = vec![0.0; n];
-    for (c, share) in roof_share.iter_mut().enumerate() {
+    let mut open_share = vec![0.0; n];
+    for (c, (share, open_s)) in roof_share.iter_mut().zip(open_share.iter_mut()).enumerate() {
         let ring = partition.ring(c);
         let lo = ring.iter().fold(DVec2::splat(f64::MAX), |m, &p| m.min(p));
         let hi = ring.iter().fold(DVec2::splat(f64::MIN), |m, &p| m.max(p));
         let (k0, k1) = (key(lo), key(hi));
-        let (mut inside, mut hit) = (0usize, 0usize);
+        let (mut inside, mut hit, mut seen_through) = (0usize, 0usize, 0usize);
         for kx in k0.0..=k1.0 {
             for ky in k0.1..=k1.1 {
                 let centre = DVec2::new((kx as f64 + 0.5) * pixel_m, (ky as f64 + 0.5) * pixel_m);
                 if partition.contains(c, centre) {
                     inside += 1;
                     hit += marked.contains(&(kx, ky)) as usize;
+                    seen_through += open.contains(&(kx, ky)) as usize;
                 }
             }
         }
@@ -428,9 +447,10 @@ pub fn label(
             hit = marked.contains(&key(centroid)) as usize;
         }
         *share = hit as f64 / inside as f64;
+        *open_s = seen_through as f64 / inside as f64;
     }
     let nb = partition.neighbours();
-    let inside = min_cut_labels(&partition, &nb, &roof_share, walls, terms);
+    let inside = min_cut_labels(&partition, &nb, &roof_share, &open_share, walls, terms);
     let mut building = vec![None; n];
     let mut buildings = 0u32;
     for s in 0..n {
@@ -520,7 +540,7 @@ mod tests {
             wall_distance_m: 0.5,
             wall_reach_m: 1.25,
         };
-        let f = label(p, &roof, &lines, &terms);
+        let f = label(p, &roof, &[], &lines, &terms);
         assert_eq!(f.buildings, 1);
         let area: f64 = (0..f.inside.len())
             .filter(|&c| f.inside[c])

@@ -12,9 +12,9 @@
 //!   │                                     where roof evidence ends (evidence_edges)
 //!   ├─ footprint::partition  → Partition  convex cells of the site's box cut by those lines
 //!   ├─ enclosure             → wall fronts from the pair clouds; ground enclosed between
-//!   │                                     facades seen from outside (footprint evidence)
-//!   ├─ footprint::label      → Footprint  cells inside by roof and enclosure evidence,
-//!   │                                     buildings = components
+//!   │                                     facades seen from outside; ground seen through
+//!   ├─ footprint::label      → Footprint  cells inside by roof, enclosure and open-ground
+//!   │                                     evidence, buildings = components
 //!   ├─ roof::assign          → CellRoof per inside cell: roof planes by α-expansion over
 //!   │                                     data and seam terms (supported, or inferred)
 //!   ├─ solid::extrude        → Solid      closed planar polygon surface with provenance
@@ -213,6 +213,21 @@ pub fn roof_edges(points: &[Vec3], set: &PlaneSet) -> Vec<SplitLine> {
     out
 }
 
+/// Weighted mean height of the points `idx`, metres.
+fn weighted_z(points: &[Vec3], weights: &[f32], idx: &[u32]) -> f64 {
+    let (mut s, mut w) = (0.0, 0.0);
+    for &i in idx {
+        let wi = weights[i as usize].max(1e-6) as f64;
+        s += wi * points[i as usize].z as f64;
+        w += wi;
+    }
+    if w > 0.0 {
+        s / w
+    } else {
+        f64::INFINITY
+    }
+}
+
 /// Runs the pipeline (module docs).
 ///
 /// # Errors
@@ -285,7 +300,27 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
         wall_distance_m: 0.25 * tol.distance_m,
         wall_reach_m: tol.radius_m,
     };
-    let fp = footprint::label(part, &roof_xy, &walls, &terms);
+    // Below the lowest roof plane, a sight line from a wall point to its pair's ends crossed open
+    // ground.
+    let lowest_roof = set
+        .planes
+        .iter()
+        .filter(|p| p.kind == PlaneKind::Roof)
+        .map(|p| weighted_z(points, weights, &p.support))
+        .fold(f64::INFINITY, f64::min);
+    let open = if lowest_roof.is_finite() {
+        enclosure::open_ground(
+            points,
+            &set,
+            input.views,
+            &fronts,
+            lowest_roof - tol.distance_m,
+            input.voxel_m,
+        )
+    } else {
+        Vec::new()
+    };
+    let fp = footprint::label(part, &roof_xy, &open, &walls, &terms);
     if fp.buildings == 0 {
         let count = |k| set.planes.iter().filter(|p| p.kind == k).count();
         return Err(TwinError::Empty {
