@@ -283,7 +283,7 @@ mod tests {
             transmitter: DVec3::new(20.0, 1.0, 1.5),
         };
         let fronts = [Some(DVec2::X)];
-        let open = open_ground(&pts, &set, &[view.clone()], &fronts, 8.0, 0.5);
+        let open = open_ground(&pts, &set, std::slice::from_ref(&view), &fronts, 8.0, 0.5);
         assert!(open.len() > 100, "{}", open.len());
         assert!(open.iter().all(|p| p.x > 0.5 && p.x < 20.0), "{open:?}");
         // Sensors behind the wall (its closed side) see nothing through it.
