@@ -25,9 +25,11 @@
 //!   direction of the site, and a wall within [`SNAP_DEG`] of one is turned onto it (its offset
 //!   refitted with the normal held). No direction is assumed: the peaks are the data's. Roofs
 //!   within [`SNAP_DEG`] of level are made level. Planes of one kind with the same normal (within
-//!   1° for walls, already on shared directions; [`SNAP_DEG`] for roofs), each one's centroid
-//!   within the distance tolerance of the other and supports within two radii are merged (one
-//!   physical facade imaged by several pairs, or split by a gap); a merged roof is refitted.
+//!   1° for walls, already on shared directions; [`SNAP_DEG`] for roofs) and each one's
+//!   centroid within the distance tolerance of the other are merged — walls only when their
+//!   supports also come within two radii (one physical facade imaged by several pairs, or split
+//!   by a gap), roofs wherever they are (one roof plane seen in pieces, or two roofs at one
+//!   height and slope, which the footprint keeps apart); a merged roof is refitted.
 //!   Roof planes under [`MIN_ROOF_SUPPORT`] points are then dropped.
 
 use glam::{DMat3, DVec3, Vec3};
@@ -417,7 +419,9 @@ fn merge_coplanar(
             {
                 continue;
             }
-            if !supports_touch(points, &q.support, &p.support, 2.0 * tol.radius_m) {
+            if p.kind == PlaneKind::Wall
+                && !supports_touch(points, &q.support, &p.support, 2.0 * tol.radius_m)
+            {
                 continue;
             }
             q.support.extend_from_slice(&p.support);
