@@ -256,3 +256,24 @@ fn a_bad_voxel_in_the_report_is_refused_naming_the_field_and_value() {
         "{stderr}"
     );
 }
+
+/// Two runs on the same input write the same bytes (no hash-map order reaches the output).
+#[test]
+fn the_twin_is_the_same_bytes_run_twice() {
+    let run = run_dir("twice", 0.5, true);
+    let outs = [run.join("a"), run.join("b")];
+    for out in &outs {
+        let (ok, _, stderr) = has_sim(&[
+            "twin",
+            run.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(ok, "{stderr}");
+    }
+    for f in ["twin.obj", "twin.ply", "twin.xml", "twin.city.json"] {
+        let a = std::fs::read(outs[0].join(f)).unwrap();
+        let b = std::fs::read(outs[1].join(f)).unwrap();
+        assert!(a == b, "{f} differs between two runs");
+    }
+}
