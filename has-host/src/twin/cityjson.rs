@@ -2,8 +2,11 @@
 //! footprint, its boundary a `Solid` whose surfaces carry the semantics `WallSurface`,
 //! `RoofSurface` and `GroundSurface`.
 //!
-//! Vertices are integers under `transform` (scale 1 mm, translate the smallest corner), as the
+//! Vertices are the ones the faces use, integers under `transform` (scale 0.1 mm, below the
+//! partition's weld, so distinct vertices stay distinct; translate the smallest corner), as the
 //! specification requires; the run's frame is local metres, so no `referenceSystem` is claimed.
+//! Where two parts of a building touch along an edge, the solid holds one copy of that edge's
+//! vertices per part ([`super::solid`]); a validator reports those as duplicate vertices.
 //! Each semantic surface object also carries the face's provenance (`inferred`, `plane`,
 //! `evidence`), an extra attribute CityJSON allows on semantic objects.
 
@@ -12,7 +15,7 @@ use serde_json::{json, Value};
 use super::solid::{Provenance, Solid};
 
 /// Vertex quantum of the file, metres.
-pub const SCALE_M: f64 = 0.001;
+pub const SCALE_M: f64 = 0.0001;
 
 /// The CityJSON 2.0 document of `solid`.
 pub fn document(solid: &Solid) -> Value {
@@ -25,24 +28,42 @@ pub fn document(solid: &Solid) -> Value {
     } else {
         lo
     };
-    let vertices: Vec<Value> = solid
-        .vertices
+    // Only the vertices some face uses (merging faces leaves interior vertices behind), in
+    // first-use order.
+    let mut index = vec![u32::MAX; solid.vertices.len()];
+    let mut vertices: Vec<Value> = Vec::new();
+    let rings: Vec<Vec<u32>> = solid
+        .faces
         .iter()
-        .map(|v| {
-            let q = ((*v - lo) / SCALE_M).round();
-            json!([q.x as i64, q.y as i64, q.z as i64])
+        .map(|f| {
+            f.ring
+                .iter()
+                .map(|&v| {
+                    if index[v as usize] == u32::MAX {
+                        index[v as usize] = vertices.len() as u32;
+                        let q = ((solid.vertices[v as usize] - lo) / SCALE_M).round();
+                        vertices.push(json!([q.x as i64, q.y as i64, q.z as i64]));
+                    }
+                    index[v as usize]
+                })
+                .collect()
         })
         .collect();
     let mut objects = serde_json::Map::new();
     for b in 0..solid.buildings as u32 {
-        let faces: Vec<_> = solid.faces.iter().filter(|f| f.building == b).collect();
+        let faces: Vec<_> = solid
+            .faces
+            .iter()
+            .zip(&rings)
+            .filter(|(f, _)| f.building == b)
+            .collect();
         if faces.is_empty() {
             continue;
         }
-        let boundaries: Vec<Value> = faces.iter().map(|f| json!([f.ring])).collect();
+        let boundaries: Vec<Value> = faces.iter().map(|(_, r)| json!([r])).collect();
         let surfaces: Vec<Value> = faces
             .iter()
-            .map(|f| {
+            .map(|(f, _)| {
                 let mut s = json!({ "type": format!("{:?}", f.surface) });
                 match &f.provenance {
                     Provenance::Plane { plane, points } => {
