@@ -28,7 +28,7 @@ pub struct TwinArgs {
     /// A finished `reconstruct` run directory (report.json, fused.ply, ground_truth.ply).
     pub run_dir: PathBuf,
     /// Output directory (twin.obj, twin.ply, twin.city.json, twin.xml with twin_building_*.ply,
-    /// twin_report.json, twin_report.md).
+    /// twin_report.json, twin_report.md, twin_top.png, twin_side.png, report.html).
     #[arg(long)]
     pub out: PathBuf,
     /// The run's scenario file, when the path report.json records does not resolve from here.
@@ -40,7 +40,10 @@ pub struct TwinArgs {
     pub material: String,
 }
 
-const OUTPUTS: [&str; 7] = [
+const OUTPUTS: [&str; 10] = [
+    "twin_top.png",
+    "twin_side.png",
+    "report.html",
     "twin.xml",
     "twin_building_*.ply",
     "twin.obj",
@@ -235,6 +238,7 @@ pub fn run(a: TwinArgs) -> Result<()> {
     }
     // The scene last: it names the meshes.
     has_host::io::write_files(&[(a.out.join("twin.xml"), radio.xml.into_bytes())])?;
+    write_views(&a.out, solid, &truth, density, seed, &md)?;
     run_dir.finish()?;
     print!("{md}");
     println!("built in {build_s:.1} s; wrote {}", a.out.display());
@@ -266,6 +270,73 @@ fn ground_height(sc: &Scenario, objects: &[has_host::Object], points: &[Vec3]) -
             )
         })?;
     Ok(hit.point.z as f64)
+}
+
+/// `twin_top.png`, `twin_side.png` (area samples of the faces on a detected plane, red, and of
+/// the inferred faces, orange, over the true surfaces, grey) and `report.html` (the report, the
+/// truth and the twin's two kinds of faces in 3D, the views).
+fn write_views(
+    out: &Path,
+    solid: &twin::solid::Solid,
+    truth: &[Vec3],
+    density: f64,
+    seed: u64,
+    md: &str,
+) -> Result<()> {
+    use crate::plot::{self, View};
+    use has_host::html::{Layer, MESH_COLOUR};
+    use plotters::style::RGBColor;
+    let inferred =
+        |f: &twin::solid::Face| matches!(f.provenance, twin::solid::Provenance::Inferred { .. });
+    let shown = |f: &twin::solid::Face| f.surface != Surface::GroundSurface;
+    let (on_plane, _) = solid.triangulate(|f| shown(f) && !inferred(f));
+    let (guessed, _) = solid.triangulate(|f| shown(f) && inferred(f));
+    let sample = |m: &has_host::mesh::TriMesh| -> Result<Vec<Vec3>> {
+        if m.faces.is_empty() {
+            return Ok(Vec::new());
+        }
+        Ok(m.sample(density, seed)?)
+    };
+    let (a, b) = (sample(&on_plane)?, sample(&guessed)?);
+    let grey = RGBColor(170, 170, 170);
+    let red = RGBColor(200, 40, 40);
+    let orange = RGBColor(240, 150, 20);
+    for (file, view, title) in [
+        ("twin_top.png", View::Top, "Planar twin: faces on a detected plane (red), inferred faces (orange), over the true surfaces (grey), top view"),
+        ("twin_side.png", View::Side, "Planar twin: faces on a detected plane (red), inferred faces (orange), over the true surfaces (grey), side view from −y"),
+    ] {
+        plot::projection(
+            &out.join(file),
+            title,
+            view,
+            &[
+                ("ground truth", truth, grey, 1),
+                ("faces on a plane", &a, red, 1),
+                ("inferred faces", &b, orange, 1),
+            ],
+        )?;
+    }
+    let layers = [
+        Layer::points("ground truth (area samples)", [150, 150, 150], truth, 2),
+        Layer::mesh("twin: faces on a detected plane", MESH_COLOUR, &on_plane),
+        Layer::mesh("twin: inferred faces", [240, 150, 20], &guessed),
+    ];
+    crate::html_report::write(
+        out,
+        "has-sim twin",
+        md,
+        &layers,
+        &[
+            (
+                "twin_top.png",
+                "The twin's area samples over the truth, top view",
+            ),
+            (
+                "twin_side.png",
+                "The twin's area samples over the truth, side view",
+            ),
+        ],
+    )
 }
 
 /// The run's pair clouds (`pair_BS-AP.ply`) with the positions of their base station and the

@@ -106,6 +106,9 @@ fn twin_of_a_block_is_written_in_every_format_and_scored() {
         "twin.city.json",
         "twin_report.json",
         "twin_report.md",
+        "twin_top.png",
+        "twin_side.png",
+        "report.html",
     ] {
         assert!(out.join(f).is_file(), "{f} missing");
     }
