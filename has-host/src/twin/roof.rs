@@ -322,6 +322,7 @@ pub fn assign(
     };
     // α-expansion (Boykov, Veksler & Zabih 2001): the seam cost is a metric, so each expansion
     // is one minimum cut and the energy never rises.
+    let mut current = energy(&lab, &data, &pairs, &v);
     for _sweep in 0..MAX_SWEEPS {
         let mut changed = false;
         for alpha in 0..labels.len() {
@@ -385,12 +386,13 @@ pub fn assign(
                 continue;
             }
             // Accept only a strict decrease (guards against rounding).
-            let before = energy(&lab, &data, &pairs, &v);
             let old = lab.clone();
             for &vi in &take {
                 lab[cells[vi]] = Some(alpha);
             }
-            if energy(&lab, &data, &pairs, &v) < before - 1e-9 {
+            let after = energy(&lab, &data, &pairs, &v);
+            if after < current - 1e-9 {
+                current = after;
                 changed = true;
             } else {
                 lab = old;

@@ -95,32 +95,37 @@ pub struct Solid {
 
 /// Inserts, into both cells holding edge a–b, the vertex where their roofs cross along it.
 fn split_crossings(fp: &mut Footprint, roofs: &[Option<CellRoof>]) {
-    loop {
-        let nb = fp.partition.neighbours();
-        let mut cut = None;
-        'search: for (c, ring) in fp.partition.cells.iter().enumerate() {
-            let Some(rc) = roofs[c] else { continue };
-            for k in 0..ring.len() {
-                let Some(d) = nb[c][k] else { continue };
-                let Some(rd) = roofs[d as usize] else {
-                    continue;
-                };
-                let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
-                let (pa, pb) = (
-                    fp.partition.vertices[a as usize],
-                    fp.partition.vertices[b as usize],
-                );
-                let fa = rc.z_at(pa) - rd.z_at(pa);
-                let fb = rc.z_at(pb) - rd.z_at(pb);
-                if (fa > HEIGHT_QUANTUM_M && fb < -HEIGHT_QUANTUM_M)
-                    || (fa < -HEIGHT_QUANTUM_M && fb > HEIGHT_QUANTUM_M)
-                {
-                    cut = Some((c, d as usize, a, b, pa + (pb - pa) * (fa / (fa - fb))));
-                    break 'search;
-                }
+    // One pass in cell and ring order (a crossing splits its edge into two parts that cross no
+    // more, and two planes cross once along a straight edge), each shared edge once.
+    let nb = fp.partition.neighbours();
+    let mut cuts: Vec<(usize, usize, u32, u32, DVec2)> = Vec::new();
+    let mut done: std::collections::HashSet<(u32, u32)> = Default::default();
+    for (c, ring) in fp.partition.cells.iter().enumerate() {
+        let Some(rc) = roofs[c] else { continue };
+        for k in 0..ring.len() {
+            let Some(d) = nb[c][k] else { continue };
+            let Some(rd) = roofs[d as usize] else {
+                continue;
+            };
+            let (a, b) = (ring[k], ring[(k + 1) % ring.len()]);
+            if done.contains(&(b, a)) {
+                continue;
+            }
+            let (pa, pb) = (
+                fp.partition.vertices[a as usize],
+                fp.partition.vertices[b as usize],
+            );
+            let fa = rc.z_at(pa) - rd.z_at(pa);
+            let fb = rc.z_at(pb) - rd.z_at(pb);
+            if (fa > HEIGHT_QUANTUM_M && fb < -HEIGHT_QUANTUM_M)
+                || (fa < -HEIGHT_QUANTUM_M && fb > HEIGHT_QUANTUM_M)
+            {
+                done.insert((a, b));
+                cuts.push((c, d as usize, a, b, pa + (pb - pa) * (fa / (fa - fb))));
             }
         }
-        let Some((c, d, a, b, x)) = cut else { return };
+    }
+    for (c, d, a, b, x) in cuts {
         let v = fp.partition.vertices.len() as u32;
         fp.partition.vertices.push(x);
         for (cell, from, to) in [(c, a, b), (d, b, a)] {
