@@ -52,29 +52,50 @@ pub struct PairView {
 /// Fewest of a wall's points a pair must hold to vote on its side.
 pub const MIN_VOTE_POINTS: usize = 3;
 
-/// Per plane (index of `set.planes`), the unit horizontal normal of an oriented wall's open side,
-/// `None` for roofs, the ground and walls the views do not orient.
-pub fn wall_fronts(points: &[Vec3], set: &PlaneSet, views: &[PairView]) -> Vec<Option<DVec2>> {
-    let mut votes = vec![0.0f64; set.planes.len()];
+/// Which wall points each pair imaged: per view, per plane (index of `set.planes`; empty for
+/// roofs and the ground), the support points with a point of the view's cloud within the
+/// distance tolerance. Both the wall fronts and the open ground read it.
+pub fn sightings(points: &[Vec3], set: &PlaneSet, views: &[PairView]) -> Vec<Vec<Vec<u32>>> {
     let r2 = (set.tol.distance_m * set.tol.distance_m) as f32;
-    for view in views {
-        let Ok(index) = PointIndex::new("pair view", &view.points) else {
-            continue;
-        };
-        for (k, p) in set.planes.iter().enumerate() {
-            if p.kind != PlaneKind::Wall {
-                continue;
-            }
-            let held = p
-                .support
+    views
+        .iter()
+        .map(|view| {
+            let Ok(index) = PointIndex::new("pair view", &view.points) else {
+                return vec![Vec::new(); set.planes.len()];
+            };
+            set.planes
                 .iter()
-                .filter(|&&i| index.nearest(points[i as usize]).1 <= r2)
-                .count();
-            if held < MIN_VOTE_POINTS {
+                .map(|p| {
+                    if p.kind != PlaneKind::Wall {
+                        return Vec::new();
+                    }
+                    p.support
+                        .iter()
+                        .copied()
+                        .filter(|&i| index.nearest(points[i as usize]).1 <= r2)
+                        .collect()
+                })
+                .collect()
+        })
+        .collect()
+}
+
+/// Per plane (index of `set.planes`), the unit horizontal normal of an oriented wall's open side,
+/// `None` for roofs, the ground and walls the views do not orient (`seen`: [`sightings`]).
+pub fn wall_fronts(
+    set: &PlaneSet,
+    views: &[PairView],
+    seen: &[Vec<Vec<u32>>],
+) -> Vec<Option<DVec2>> {
+    let mut votes = vec![0.0f64; set.planes.len()];
+    for (view, held) in views.iter().zip(seen) {
+        for (k, p) in set.planes.iter().enumerate() {
+            let n = held[k].len();
+            if p.kind != PlaneKind::Wall || n < MIN_VOTE_POINTS {
                 continue;
             }
             let side = |x: DVec3| (p.n.dot(x) - p.d).signum();
-            votes[k] += held as f64 * (side(view.receiver) + side(view.transmitter));
+            votes[k] += n as f64 * (side(view.receiver) + side(view.transmitter));
         }
     }
     set.planes
@@ -87,19 +108,18 @@ pub fn wall_fronts(points: &[Vec3], set: &PlaneSet, views: &[PairView]) -> Vec<O
 }
 
 /// Ground seen through: the pixels (centres, on the raster of `pixel_m`) under the sight lines
-/// from each wall point a pair imaged to that pair's two ends, where the line passes lower than
+/// from each wall point a pair imaged (`seen`: [`sightings`]) to that pair's two ends, where the line passes lower than
 /// `below_m` (the lowest roof): no building stands there, or the line would have been blocked.
 /// Only oriented walls whose open side holds the sensor count, and the line is walked from one
 /// and a half pixels off the wall (the wall's own pixel is not open).
 pub fn open_ground(
     points: &[Vec3],
-    set: &PlaneSet,
     views: &[PairView],
+    seen: &[Vec<Vec<u32>>],
     fronts: &[Option<DVec2>],
     below_m: f64,
     pixel_m: f64,
 ) -> Vec<DVec2> {
-    let r2 = (set.tol.distance_m * set.tol.distance_m) as f32;
     let key = |p: DVec2| {
         (
             (p.x / pixel_m).floor() as i64,
@@ -107,17 +127,14 @@ pub fn open_ground(
         )
     };
     let mut open: std::collections::HashSet<(i64, i64)> = Default::default();
-    for view in views {
-        let Ok(index) = PointIndex::new("pair view", &view.points) else {
-            continue;
-        };
-        for (k, p) in set.planes.iter().enumerate() {
+    for (view, held) in views.iter().zip(seen) {
+        for (k, idx) in held.iter().enumerate() {
             let Some(front) = fronts.get(k).copied().flatten() else {
                 continue;
             };
-            for &i in &p.support {
+            for &i in idx {
                 let q = points[i as usize].as_dvec3();
-                if q.z >= below_m || index.nearest(points[i as usize]).1 > r2 {
+                if q.z >= below_m {
                     continue;
                 }
                 for sensor in [view.receiver, view.transmitter] {
@@ -283,7 +300,10 @@ mod tests {
             transmitter: DVec3::new(20.0, 1.0, 1.5),
         };
         let fronts = [Some(DVec2::X)];
-        let open = open_ground(&pts, &set, std::slice::from_ref(&view), &fronts, 8.0, 0.5);
+        let views = std::slice::from_ref(&view);
+        let seen = sightings(&pts, &set, views);
+        assert_eq!(wall_fronts(&set, views, &seen), fronts);
+        let open = open_ground(&pts, views, &seen, &fronts, 8.0, 0.5);
         assert!(open.len() > 100, "{}", open.len());
         assert!(open.iter().all(|p| p.x > 0.5 && p.x < 20.0), "{open:?}");
         // Sensors behind the wall (its closed side) see nothing through it.
@@ -292,7 +312,8 @@ mod tests {
             transmitter: DVec3::new(-20.0, 1.0, 1.5),
             ..view
         };
-        assert!(open_ground(&pts, &set, &[behind], &fronts, 8.0, 0.5).is_empty());
+        let seen = sightings(&pts, &set, std::slice::from_ref(&behind));
+        assert!(open_ground(&pts, &[behind], &seen, &fronts, 8.0, 0.5).is_empty());
     }
 
     #[test]

@@ -213,21 +213,6 @@ pub fn roof_edges(points: &[Vec3], set: &PlaneSet) -> Vec<SplitLine> {
     out
 }
 
-/// Weighted mean height of the points `idx`, metres.
-fn weighted_z(points: &[Vec3], weights: &[f32], idx: &[u32]) -> f64 {
-    let (mut s, mut w) = (0.0, 0.0);
-    for &i in idx {
-        let wi = weights[i as usize].max(1e-6) as f64;
-        s += wi * points[i as usize].z as f64;
-        w += wi;
-    }
-    if w > 0.0 {
-        s / w
-    } else {
-        f64::INFINITY
-    }
-}
-
 /// Runs the pipeline (module docs).
 ///
 /// # Errors
@@ -290,7 +275,8 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
         .copied()
         .collect();
     // Ground enclosed between facades seen from outside is footprint evidence like a roof point.
-    let fronts = enclosure::wall_fronts(points, &set, input.views);
+    let seen = enclosure::sightings(points, &set, input.views);
+    let fronts = enclosure::wall_fronts(&set, input.views, &seen);
     let enclosed = enclosure::enclosed_ground(&walls, &fronts, input.voxel_m, tol.radius_m);
     roof_xy.extend_from_slice(&enclosed);
     // Partition edges on a wall's trace lie on it exactly; an edge a quarter of the distance
@@ -306,13 +292,13 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
         .planes
         .iter()
         .filter(|p| p.kind == PlaneKind::Roof)
-        .map(|p| weighted_z(points, weights, &p.support))
+        .map(|p| planes::weighted_offset(points, weights, &p.support, glam::DVec3::Z))
         .fold(f64::INFINITY, f64::min);
     let open = if lowest_roof.is_finite() {
         enclosure::open_ground(
             points,
-            &set,
             input.views,
+            &seen,
             &fronts,
             lowest_roof - tol.distance_m,
             input.voxel_m,

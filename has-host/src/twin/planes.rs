@@ -254,7 +254,9 @@ pub fn detect(
     })
 }
 
-fn weighted_offset(points: &[Vec3], weights: &[f32], idx: &[u32], n: DVec3) -> f64 {
+/// Weighted mean of `n·p` over the points `idx` (the offset of the plane of normal `n` through
+/// their weighted centroid), metres; 0 for no weight.
+pub(crate) fn weighted_offset(points: &[Vec3], weights: &[f32], idx: &[u32], n: DVec3) -> f64 {
     let (mut s, mut w) = (0.0, 0.0);
     for &i in idx {
         let wi = weights[i as usize].max(1e-6) as f64;

@@ -349,16 +349,20 @@ fn unglue_nonmanifold_edges(solid: &mut Solid) {
         if tops.is_empty() {
             return;
         }
-        if !split_by_fans(solid, &tops) {
+        if !split_by_fans(solid, &tops, uses) {
             return;
         }
     }
 }
 
 /// Splits each vertex of `candidates` into one copy per fan of the faces around it (faces
-/// joined through an edge `uses` counts exactly two faces on); whether any was split.
-fn split_by_fans(solid: &mut Solid, candidates: &[u32]) -> bool {
-    let mut uses = edge_uses(solid);
+/// joined through an edge `uses`, the solid's [`edge_uses`], counts exactly two faces on; kept
+/// current as vertices split); whether any was split.
+fn split_by_fans(
+    solid: &mut Solid,
+    candidates: &[u32],
+    mut uses: HashMap<(u32, u32), usize>,
+) -> bool {
     let mut incident: HashMap<u32, Vec<usize>> = HashMap::new();
     for (i, f) in solid.faces.iter().enumerate() {
         for &x in &f.ring {
@@ -432,7 +436,8 @@ fn split_by_fans(solid: &mut Solid, candidates: &[u32]) -> bool {
 /// Splits every vertex whose faces form more than one fan (two parts touching at a point).
 fn unglue_nonmanifold_vertices(solid: &mut Solid) {
     let all: Vec<u32> = (0..solid.vertices.len() as u32).collect();
-    split_by_fans(solid, &all);
+    let uses = edge_uses(solid);
+    split_by_fans(solid, &all, uses);
 }
 
 /// How many faces use each undirected edge.
@@ -718,20 +723,9 @@ impl Solid {
     pub fn max_planarity_error_m(&self) -> f64 {
         let mut worst: f64 = 0.0;
         for f in &self.faces {
-            let pts: Vec<DVec3> = f.ring.iter().map(|&v| self.vertices[v as usize]).collect();
-            let c = pts.iter().copied().sum::<DVec3>() / pts.len() as f64;
-            let mut n = DVec3::ZERO;
-            for k in 0..pts.len() {
-                let (p, q) = (pts[k], pts[(k + 1) % pts.len()]);
-                n += DVec3::new(
-                    (p.y - q.y) * (p.z + q.z),
-                    (p.z - q.z) * (p.x + q.x),
-                    (p.x - q.x) * (p.y + q.y),
-                );
-            }
-            let n = n.normalize_or_zero();
-            for p in &pts {
-                worst = worst.max((*p - c).dot(n).abs());
+            let (n, d) = face_plane(&self.vertices, &f.ring);
+            for &v in &f.ring {
+                worst = worst.max((n.dot(self.vertices[v as usize]) - d).abs());
             }
         }
         worst
