@@ -142,6 +142,8 @@ pub fn run(a: TwinArgs) -> Result<()> {
     let truth_path = a.run_dir.join("ground_truth.ply");
     let truth = ply::read_ply(&truth_path)?.vertices;
 
+    // Every input is read before the output directory is made.
+    let views = pair_views(&a.run_dir, &sc)?;
     let run_dir = RunDir::start(&a.out, &OUTPUTS)?;
     let objects = sc
         .scene
@@ -158,7 +160,6 @@ pub fn run(a: TwinArgs) -> Result<()> {
         .filter(|t| (t[1] - t[0]).cross(t[2] - t[0]).normalize_or_zero().z > -0.5)
         .collect();
 
-    let views = pair_views(&a.run_dir, &sc)?;
     let input = TwinInput {
         points: &fused.vertices,
         weights: &weights,

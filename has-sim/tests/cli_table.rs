@@ -371,6 +371,16 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
     let mkdir = |p: &Path| std::fs::create_dir(p).unwrap();
     let report_dir = spoilt("run_report_dir", "report.json", &mkdir);
     let truth_dir = spoilt("run_truth_dir", "ground_truth.ply", &mkdir);
+    // The whole run with one pair cloud added (the twin reads `pair_*.ply` to orient walls).
+    let with_pair = |name: &str, pair_file: &str, spoil: &dyn Fn(&Path)| {
+        let dir = spoilt(name, "", &|_| {});
+        spoil(&dir.join(pair_file));
+        dir
+    };
+    let pair_dir = with_pair("run_pair_dir", "pair_BS1-V1.ply", &mkdir);
+    let pair_stray = with_pair("run_pair_stray", "pair_BS9-X.ply", &|p| {
+        std::fs::copy(run_dir.join("fused.ply"), p).unwrap();
+    });
     // Pair clouds of a made run of `site.toml` (office_pair imaging one pair, BS1-UAV): a
     // 0.5 m grid on the flat block's roof, its report.json recording the digest of the
     // scenario at the quick preset, as `reconstruct` records it. The row "--from-pairs of a
@@ -1152,6 +1162,62 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
         )
         .absent(&[&out("twin_td")]),
         row(
+            "twin, a pair cloud a directory",
+            &["twin", s(&pair_dir), "--out", s(&out("twin_pd"))],
+            1,
+            "pair_BS1-V1.ply: is a directory",
+        )
+        .absent(&[&out("twin_pd")]),
+        row(
+            "twin, a pair cloud naming no pair of the scenario",
+            &["twin", s(&pair_stray), "--out", s(&out("twin_ps"))],
+            1,
+            "pair_BS9-X.ply names no base station",
+        )
+        .absent(&[&out("twin_ps")]),
+        row(
+            "twin --material ../concrete",
+            &[
+                "twin",
+                s(&run_dir),
+                "--out",
+                s(&out("twin_m1")),
+                "--material",
+                "../concrete",
+            ],
+            1,
+            "--material = ../concrete",
+        )
+        .absent(&[&out("twin_m1")]),
+        row(
+            "twin --material NaN",
+            &[
+                "twin",
+                s(&run_dir),
+                "--out",
+                s(&out("twin_m2")),
+                "--material",
+                "NaN",
+            ],
+            1,
+            "not an ITU radio material",
+        )
+        .absent(&[&out("twin_m2")]),
+        row(
+            "twin --material ''",
+            &[
+                "twin",
+                s(&run_dir),
+                "--out",
+                s(&out("twin_m3")),
+                "--material",
+                "",
+            ],
+            1,
+            "--material = :",
+        )
+        .absent(&[&out("twin_m3")]),
+        row(
             "twin --out /dev/null",
             &["twin", s(&run_dir), "--out", "/dev/null"],
             1,
@@ -1488,6 +1554,9 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
         let zero_fused = spoilt("run_zero_fused", "fused.ply", &|p| {
             symlink("/dev/zero", p).unwrap()
         });
+        let zero_pair = with_pair("run_zero_pair", "pair_BS1-V1.ply", &|p| {
+            symlink("/dev/zero", p).unwrap()
+        });
         let twin_null = d.join("twin_into_null");
         std::fs::create_dir_all(&twin_null).unwrap();
         symlink("/dev/null", twin_null.join("twin.obj")).unwrap();
@@ -1514,6 +1583,13 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
                 "fused.ply: is a device",
             )
             .absent(&[&out("twin_zf")]),
+            row(
+                "twin, a pair cloud a link to /dev/zero",
+                &["twin", s(&zero_pair), "--out", s(&out("twin_zp"))],
+                1,
+                "pair_BS1-V1.ply: is a device",
+            )
+            .absent(&[&out("twin_zp")]),
             row(
                 "twin, an output a link to /dev/null",
                 &["twin", s(&run_dir), "--out", s(&twin_null)],
