@@ -29,6 +29,18 @@ fn has_sim(args: &[&str]) -> (bool, String, String) {
     )
 }
 
+/// `has-sim twin RUN --out OUT` with `extra` arguments.
+fn twin(run: &Path, out: &Path, extra: &[&str]) -> (bool, String, String) {
+    let mut args = vec![
+        "twin",
+        run.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ];
+    args.extend_from_slice(extra);
+    has_sim(&args)
+}
+
 /// Surface samples of the box [x0, x0 + 16] × [y0, y0 + 10] × [0, 8] without its base.
 fn block(step: f32) -> Vec<Vec3> {
     let (x0, y0, w, d, h) = (-8.0f32, -5.0f32, 16.0f32, 10.0f32, 8.0f32);
@@ -90,12 +102,7 @@ fn run_dir(name: &str, voxel: f64, with_weight: bool) -> PathBuf {
 fn twin_of_a_block_is_written_in_every_format_and_scored() {
     let run = run_dir("ok", 0.5, true);
     let out = run.join("twin");
-    let (ok, stdout, stderr) = has_sim(&[
-        "twin",
-        run.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (ok, stdout, stderr) = twin(&run, &out, &[]);
     assert!(ok, "{stderr}");
     assert!(stdout.contains("planar twin"), "{stdout}");
     for f in [
@@ -137,14 +144,7 @@ fn twin_of_a_block_is_written_in_every_format_and_scored() {
 fn the_sionna_scene_reads_back_and_reflects() {
     let run = run_dir("xml", 0.5, true);
     let out = run.join("twin");
-    let (ok, _, stderr) = has_sim(&[
-        "twin",
-        run.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-        "--material",
-        "itu_brick",
-    ]);
+    let (ok, _, stderr) = twin(&run, &out, &["--material", "itu_brick"]);
     assert!(ok, "{stderr}");
     let objects = has_host::io::mitsuba::read_mitsuba(&out.join("twin.xml")).unwrap();
     assert_eq!(objects.len(), 1);
@@ -191,12 +191,7 @@ fn the_sionna_scene_reads_back_and_reflects() {
 fn sionna_rt_loads_the_scene_and_cjval_validates_the_cityjson_when_present() {
     let run = run_dir("peers", 0.5, true);
     let out = run.join("twin");
-    let (ok, _, stderr) = has_sim(&[
-        "twin",
-        run.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (ok, _, stderr) = twin(&run, &out, &[]);
     assert!(ok, "{stderr}");
     match std::env::var("HAS_PYTHON") {
         Ok(python) => {
@@ -233,12 +228,7 @@ fn sionna_rt_loads_the_scene_and_cjval_validates_the_cityjson_when_present() {
 fn a_cloud_without_weights_is_refused_naming_the_file_and_property() {
     let run = run_dir("noweight", 0.5, false);
     let out = run.join("twin");
-    let (ok, _, stderr) = has_sim(&[
-        "twin",
-        run.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (ok, _, stderr) = twin(&run, &out, &[]);
     assert!(!ok);
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(
@@ -251,12 +241,7 @@ fn a_cloud_without_weights_is_refused_naming_the_file_and_property() {
 fn a_bad_voxel_in_the_report_is_refused_naming_the_field_and_value() {
     let run = run_dir("badvoxel", -1.0, true);
     let out = run.join("twin");
-    let (ok, _, stderr) = has_sim(&[
-        "twin",
-        run.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    let (ok, _, stderr) = twin(&run, &out, &[]);
     assert!(!ok);
     assert_eq!(stderr.lines().count(), 1, "{stderr}");
     assert!(
@@ -271,12 +256,7 @@ fn the_twin_is_the_same_bytes_run_twice() {
     let run = run_dir("twice", 0.5, true);
     let outs = [run.join("a"), run.join("b")];
     for out in &outs {
-        let (ok, _, stderr) = has_sim(&[
-            "twin",
-            run.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ]);
+        let (ok, _, stderr) = twin(&run, &out, &[]);
         assert!(ok, "{stderr}");
     }
     for f in ["twin.obj", "twin.ply", "twin.xml", "twin.city.json"] {
