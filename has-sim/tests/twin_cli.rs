@@ -256,7 +256,7 @@ fn the_twin_is_the_same_bytes_run_twice() {
     let run = run_dir("twice", 0.5, true);
     let outs = [run.join("a"), run.join("b")];
     for out in &outs {
-        let (ok, _, stderr) = twin(&run, &out, &[]);
+        let (ok, _, stderr) = twin(&run, out, &[]);
         assert!(ok, "{stderr}");
     }
     for f in ["twin.obj", "twin.ply", "twin.xml", "twin.city.json"] {
