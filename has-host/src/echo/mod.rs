@@ -55,6 +55,7 @@ pub mod noise;
 mod scatterers;
 mod synth;
 
+pub(crate) use kernel::floor_small;
 pub use kernel::PulseKernel;
 pub use scatterers::{visible_for, Scatterer, ScattererSet, VisibilityCache};
 pub use synth::{bistatic_amplitude, qpsk_symbols, zadoff_chu, EchoSynth, Noise, PointScatterer};
