@@ -93,6 +93,10 @@ const GROUP_HALF_BINS: f64 = 0.125;
 /// Most element groups of the bounded sum; a wider spread of `d_e` goes to the full sum.
 const MAX_GROUPS: usize = 64;
 
+/// Most entries (`f32`, 4 bytes each: 256 MiB) of the table of every echo's distances to the
+/// sensors; past it, each pair of echoes forms its own.
+const DISTANCE_TABLE_MAX: usize = 1 << 26;
+
 /// The pulse sampled finely for fast lookups: `p(x)` at `x = k/STEPS` bins.
 struct PulseTable {
     values: Vec<Complex32>,
@@ -170,6 +174,34 @@ impl PulseTable {
     }
 }
 
+/// The centres and radii of a pair's transmit positions and elements ([`PairPsf::apertures`]).
+struct Apertures {
+    tx_centre: Vec3,
+    rx_centre: Vec3,
+    tx_radius: f32,
+    rx_radius: f32,
+}
+
+/// An echo seen from the apertures' centres: distances, metres, and unit vectors from the echo.
+struct Sight {
+    tx_m: f32,
+    tx_dir: Vec3,
+    rx_m: f32,
+    rx_dir: Vec3,
+}
+
+impl Sight {
+    fn of(p: Vec3, ap: &Apertures) -> Sight {
+        let (t, e) = (ap.tx_centre - p, ap.rx_centre - p);
+        Sight {
+            tx_m: t.length(),
+            tx_dir: t.normalize_or_zero(),
+            rx_m: e.length(),
+            rx_dir: e.normalize_or_zero(),
+        }
+    }
+}
+
 /// Per-thread buffers of the point-spread function's sums.
 #[derive(Default)]
 struct Scratch {
@@ -180,16 +212,34 @@ struct Scratch {
     rx: Vec<(f32, Complex32)>,
     /// Per element group of the bounded sum: its moments and element count.
     moments: Vec<([Complex64; 3], usize)>,
+    /// Distances from `u` and from `v` to every transmit position, then every element.
+    u_dist: Vec<f32>,
+    v_dist: Vec<f32>,
 }
 
 impl Scratch {
-    /// The path differences of `u` and `v` through `psf`'s sensors (phasors not yet formed).
-    fn fill(&mut self, psf: &PairPsf<'_>, u: Vec3, v: Vec3) {
-        let diff = |t: &Vec3| (v.distance(*t) - u.distance(*t), Complex32::new(0.0, 0.0));
+    /// The path differences `|v − s| − |u − s|` through every sensor `s`, from the distances of
+    /// `u` and `v` to them ([`PairPsf::distances`]); phasors not yet formed.
+    fn fill(&mut self, nt: usize, u_dist: &[f32], v_dist: &[f32]) {
+        let diff = |(&dv, &du): (&f32, &f32)| (dv - du, Complex32::new(0.0, 0.0));
         self.tx.clear();
-        self.tx.extend(psf.tx.iter().map(diff));
+        self.tx
+            .extend(v_dist[..nt].iter().zip(&u_dist[..nt]).map(diff));
         self.rx.clear();
-        self.rx.extend(psf.rx.iter().map(diff));
+        self.rx
+            .extend(v_dist[nt..].iter().zip(&u_dist[nt..]).map(diff));
+    }
+
+    /// [`Scratch::fill`] for places `u` and `v`.
+    fn fill_places(&mut self, psf: &PairPsf<'_>, u: Vec3, v: Vec3) {
+        let (mut ud, mut vd) = (
+            std::mem::take(&mut self.u_dist),
+            std::mem::take(&mut self.v_dist),
+        );
+        psf.distances(u, &mut ud);
+        psf.distances(v, &mut vd);
+        self.fill(psf.tx.len(), &ud, &vd);
+        (self.u_dist, self.v_dist) = (ud, vd);
     }
 
     /// The exact phasors of the path differences ([`PairPsf::phasor`]).
@@ -222,10 +272,66 @@ impl PairPsf<'_> {
     }
 
     fn centres(&self) -> (Vec3, Vec3, f32) {
+        let c = self.apertures();
+        (c.tx_centre, c.rx_centre, 2.0 * (c.tx_radius + c.rx_radius))
+    }
+
+    /// The centres of the transmit positions and of the elements, and the largest distance of
+    /// each from its centre, metres.
+    fn apertures(&self) -> Apertures {
         let mean = |s: &[Vec3]| s.iter().copied().sum::<Vec3>() / s.len().max(1) as f32;
         let (tc, ec) = (mean(self.tx), mean(self.rx));
         let spread = |s: &[Vec3], c: Vec3| s.iter().map(|p| p.distance(c)).fold(0.0f32, f32::max);
-        (tc, ec, 2.0 * (spread(self.tx, tc) + spread(self.rx, ec)))
+        Apertures {
+            tx_centre: tc,
+            rx_centre: ec,
+            tx_radius: spread(self.tx, tc),
+            rx_radius: spread(self.rx, ec),
+        }
+    }
+
+    /// Whether the range bound of [`Self::explains_from`] already rejects `u`'s sidelobe at `v`
+    /// with the spans of `a_t` and `d_e` bounded from the apertures' centres alone: over a ball
+    /// of radius `R` about a centre `c`, `|v − s| − |u − s|` stays within `R·(|n_v − n_u| +
+    /// R·(1/(|v − c| − R) + 1/(|u − c| − R)))` of its value at `c` (`n` the unit vectors from the
+    /// echo to `c`, each turning at most `1/(distance − R)` per metre). The interval holds the
+    /// exact one (with a millimetre for `f32` rounding), so a rejection here is one there.
+    fn beyond_reach(
+        &self,
+        table: &PulseTable,
+        ap: &Apertures,
+        su: &Sight,
+        b2: f32,
+        sv: &Sight,
+        a2: f32,
+    ) -> bool {
+        let leg = |dv: f32, du: f32, nv: Vec3, nu: Vec3, r: f32| {
+            (dv > r && du > r).then(|| {
+                let k = 1.0 / (dv - r) + 1.0 / (du - r);
+                (dv - du, r * ((nv - nu).length() + r * k))
+            })
+        };
+        let (Some((ac, ah)), Some((dc, dh))) = (
+            leg(sv.tx_m, su.tx_m, sv.tx_dir, su.tx_dir, ap.tx_radius),
+            leg(sv.rx_m, su.rx_m, sv.rx_dir, su.rx_dir, ap.rx_radius),
+        ) else {
+            return false;
+        };
+        let margin = 1e-3;
+        let inv_bin = 1.0 / self.bin_m;
+        let (lo, hi) = (
+            (ac + dc - ah - dh - margin) * inv_bin,
+            (ac + dc + ah + dh + margin) * inv_bin,
+        );
+        let r = if lo > 0.0 {
+            lo
+        } else if hi < 0.0 {
+            -hi
+        } else {
+            return false;
+        };
+        let p0 = table.at(0.0).norm();
+        p0 > 0.0 && a2 > b2 * (table.bound_beyond(r) / p0).powi(2)
     }
 
     /// Whether an echo of power `a2` at `v` is no stronger than the sidelobe an echo of power
@@ -235,6 +341,7 @@ impl PairPsf<'_> {
     /// bound is decided without the sum. Otherwise the grouped sum's interval decides where it
     /// can ([`Self::relative_power_bounds`]), and the full sum where it cannot: every decision is
     /// the full sum's.
+    #[cfg(test)]
     fn explains(
         &self,
         table: &PulseTable,
@@ -244,10 +351,33 @@ impl PairPsf<'_> {
         a2: f32,
         scratch: &mut Scratch,
     ) -> bool {
+        let (mut ud, mut vd) = (Vec::new(), Vec::new());
+        self.distances(u, &mut ud);
+        self.distances(v, &mut vd);
+        self.explains_from(table, &ud, b2, &vd, a2, scratch)
+    }
+
+    /// The distances from `p` to every transmit position, then every element.
+    fn distances(&self, p: Vec3, out: &mut Vec<f32>) {
+        out.clear();
+        out.extend(self.tx.iter().chain(self.rx).map(|s| p.distance(*s)));
+    }
+
+    /// [`Self::explains`] from the distances of `u` and `v` to the sensors
+    /// ([`Self::distances`]).
+    fn explains_from(
+        &self,
+        table: &PulseTable,
+        u_dist: &[f32],
+        b2: f32,
+        v_dist: &[f32],
+        a2: f32,
+        scratch: &mut Scratch,
+    ) -> bool {
         if self.tx.is_empty() || self.rx.is_empty() {
             return a2 <= 0.0;
         }
-        scratch.fill(self, u, v);
+        scratch.fill(self.tx.len(), u_dist, v_dist);
         let span = |s: &[(f32, Complex32)]| {
             s.iter()
                 .fold((f32::INFINITY, f32::NEG_INFINITY), |(lo, hi), &(d, _)| {
@@ -293,7 +423,7 @@ impl PairPsf<'_> {
         if self.tx.is_empty() || self.rx.is_empty() {
             return 0.0;
         }
-        scratch.fill(self, u, v);
+        scratch.fill_places(self, u, v);
         scratch.phasors(self);
         self.full_sum(table, scratch)
     }
@@ -347,6 +477,7 @@ impl PairPsf<'_> {
             return None;
         }
         let width = (hi - lo) / groups as f64;
+        let inv_width = 1.0 / width;
         let h = 0.5 * width;
         // Moments Σ δ^k·e^{jφ} of each group about its centre, and its element count.
         scratch.moments.clear();
@@ -357,7 +488,7 @@ impl PairPsf<'_> {
         for &(d, _) in &scratch.rx {
             let x = d as f64 * inv_bin;
             let g = if width > 0.0 {
-                (((x - lo) / width) as usize).min(groups - 1)
+                (((x - lo) * inv_width) as usize).min(groups - 1)
             } else {
                 0
             };
@@ -389,26 +520,28 @@ impl PairPsf<'_> {
             let p = table.at(x as f32);
             Complex64::new(p.re as f64, p.im as f64)
         };
+        // The quadratic through the nodes `−s, 0, s` (values `g0, g1, g2`) summed against the
+        // moments is `g0·w0 + g1·w1 + g2·w2`, with the moments' weights formed once.
+        for (m, _) in scratch.moments.iter_mut() {
+            *m = if s > 0.0 {
+                let (m1, m2) = (m[1] / (2.0 * s), m[2] / (2.0 * s * s));
+                [m2 - m1, m[0] - m2 * 2.0, m1 + m2]
+            } else {
+                [Complex64::new(0.0, 0.0), m[0], Complex64::new(0.0, 0.0)]
+            };
+        }
         let mut sum = Complex64::new(0.0, 0.0);
         let mut error = 0.0f64;
         for &(a, _) in &scratch.tx {
             let xa = a as f64 * inv_bin;
             let mut inner = Complex64::new(0.0, 0.0);
-            for (g, (m, count)) in scratch.moments.iter().enumerate() {
+            for (g, (w, count)) in scratch.moments.iter().enumerate() {
                 let xc = xa + lo + (g as f64 + 0.5) * width;
                 if *count == 0 || xc - h > reach || xc + h < -reach {
                     // The pulse is zero over the whole group: the full sum adds nothing here.
                     continue;
                 }
-                let g1 = at(xc);
-                inner += if s > 0.0 {
-                    let (g0, g2) = (at(xc - s), at(xc + s));
-                    g1 * m[0]
-                        + (g2 - g0) / (2.0 * s) * m[1]
-                        + (g2 - g1 * 2.0 + g0) / (2.0 * s * s) * m[2]
-                } else {
-                    g1 * m[0]
-                };
+                inner += at(xc - s) * w[0] + at(xc) * w[1] + at(xc + s) * w[2];
                 error += *count as f64 * per_term;
             }
             sum += inner * table_phasor(&table.phasors, a as f64 * inv_lambda);
@@ -422,29 +555,35 @@ impl PairPsf<'_> {
         Some((lo as f32, hi as f32))
     }
 
-    /// Whether `v` lies at least one resolution cell from `u` in the pair's resolution metric
-    /// at `u` (module docs): past the main lobe of `u`'s point-spread function.
-    fn outside_main_lobe(&self, u: Vec3, v: Vec3) -> bool {
-        let d = v - u;
-        let axes = pair_resolution_axes(
+    /// The pair's resolution axes at `u` with each one's main-lobe half-width, metres: the
+    /// range axis comes first, its main lobe the window's; the apertures are untapered (first
+    /// null at one cell).
+    fn main_lobe_axes(&self, u: Vec3) -> [(Vec3, f32); 4] {
+        let mut axes = pair_resolution_axes(
             u,
             self.array,
             self.aperture,
             self.wavelength_m,
             self.bandwidth_hz,
         );
-        // The range axis comes first; its main lobe is the window's, the apertures' are
-        // untapered (first null at one cell).
+        for (i, (_, delta)) in axes.iter_mut().enumerate() {
+            let lobe = if i == 0 {
+                self.range_main_lobe_cells
+            } else {
+                1.0
+            };
+            *delta = (lobe * *delta).max(1e-6);
+        }
+        axes
+    }
+
+    /// Whether `v` lies at least one resolution cell from `u` in the pair's resolution metric at
+    /// `u` (module docs), past the main lobe of `u`'s point-spread function, given `u`'s
+    /// [`Self::main_lobe_axes`].
+    fn outside_lobe(axes: &[(Vec3, f32); 4], u: Vec3, v: Vec3) -> bool {
+        let d = v - u;
         axes.iter()
-            .enumerate()
-            .map(|(i, &(a, delta))| {
-                let lobe = if i == 0 {
-                    self.range_main_lobe_cells
-                } else {
-                    1.0
-                };
-                (d.dot(a) / (lobe * delta).max(1e-6)).powi(2)
-            })
+            .map(|&(a, half)| (d.dot(a) / half).powi(2))
             .sum::<f32>()
             >= 1.0
     }
@@ -483,6 +622,28 @@ pub fn sidelobes(
     all.sort_by(|a, b| b.1.total_cmp(&a.1));
     let range_c = |p: Vec3| p.distance(tc) + p.distance(ec);
     let shells: Vec<f32> = all.iter().map(|&(p, _, _)| range_c(p)).collect();
+    // Each echo's distances to the sensors, formed once rather than for every pair of echoes,
+    // where they fit in `DISTANCE_TABLE_MAX` entries.
+    let m = psf.tx.len() + psf.rx.len();
+    let table_dist: Vec<f32> = if all.len().saturating_mul(m) <= DISTANCE_TABLE_MAX {
+        let mut t = vec![0f32; all.len() * m];
+        t.par_chunks_mut(m).zip(all.par_iter()).for_each_init(
+            Vec::new,
+            |row, (out, &(p, _, _))| {
+                psf.distances(p, row);
+                out.copy_from_slice(row);
+            },
+        );
+        t
+    } else {
+        Vec::new()
+    };
+    let lobes: Vec<[(Vec3, f32); 4]> = all
+        .par_iter()
+        .map(|&(u, _, _)| psf.main_lobe_axes(u))
+        .collect();
+    let ap = psf.apertures();
+    let sights: Vec<Sight> = all.iter().map(|&(u, _, _)| Sight::of(u, &ap)).collect();
     points
         .par_iter()
         .zip(intensity.par_iter())
@@ -492,14 +653,33 @@ pub fn sidelobes(
             }
             let rv = range_c(v);
             let a2 = a * a;
-            all.iter()
+            let sv = Sight::of(v, &ap);
+            let (mut ud, mut vd) = (
+                std::mem::take(&mut scratch.u_dist),
+                std::mem::take(&mut scratch.v_dist),
+            );
+            psf.distances(v, &mut vd);
+            let explained = all
+                .iter()
                 .zip(&shells)
-                .take_while(|((_, b, _), _)| *b > a)
-                .any(|(&(u, b, outside), &ru)| {
+                .enumerate()
+                .take_while(|(_, ((_, b, _), _))| *b > a)
+                .any(|(i, (&(u, b, outside), &ru))| {
                     (rv - ru).abs() <= reach_m
-                        && (outside || psf.outside_main_lobe(u, v))
-                        && psf.explains(&table, u, b * b, v, a2, scratch)
-                })
+                        && (outside || PairPsf::outside_lobe(&lobes[i], u, v))
+                        && !psf.beyond_reach(&table, &ap, &sights[i], b * b, &sv, a2)
+                        && {
+                            let u_dist = if table_dist.is_empty() {
+                                psf.distances(u, &mut ud);
+                                &ud[..]
+                            } else {
+                                &table_dist[i * m..(i + 1) * m]
+                            };
+                            psf.explains_from(&table, u_dist, b * b, &vd, a2, scratch)
+                        }
+                });
+            (scratch.u_dist, scratch.v_dist) = (ud, vd);
+            explained
         })
         .collect()
 }
@@ -650,7 +830,7 @@ mod tests {
         };
         let table = PulseTable::new(psf.pulse);
         let mut scratch = Scratch::default();
-        let mut tried = 0;
+        let (mut tried, mut rejected) = (0, 0);
         for _ in 0..1500 {
             let u = Vec3::new(
                 rng.random_range(-15.0..15.0),
@@ -691,8 +871,18 @@ mod tests {
             for a2 in [0.1 * rho, 0.5 * rho, rho, 2.0 * rho, 10.0 * rho] {
                 assert_eq!(psf.explains(&table, u, 1.0, v, a2, &mut scratch), a2 <= rho);
             }
+            // The range bound from the centres rejects only what the full sum rejects.
+            let ap = psf.apertures();
+            let (su, sv) = (Sight::of(u, &ap), Sight::of(v, &ap));
+            for a2 in [1e-6, 1e-4, 1e-2, 1.0] {
+                if psf.beyond_reach(&table, &ap, &su, 1.0, &sv, a2) {
+                    assert!(a2 > rho, "u {u} v {v}: a² {a2} ρ {rho}");
+                    rejected += 1;
+                }
+            }
         }
         assert!(tried > 1000, "tried {tried}");
+        assert!(rejected > 100, "rejected {rejected}");
     }
 
     #[test]
