@@ -314,16 +314,24 @@ pub struct LocalMean {
 /// `dims` lattice (half-width `radius[axis]` along each axis), counting only known voxels (`power` finite; unknown ones are NaN). A voxel
 /// with no known neighbour gets NaN. Separable running sums: `O(voxels)` whatever the radius.
 pub fn local_mean(power: &[f32], dims: [usize; 3], radius: [usize; 3]) -> LocalMean {
+    local_mean_of(power.to_vec(), dims, radius)
+}
+
+/// [`local_mean`] of a lattice the caller no longer needs: its buffer becomes the mean's (one
+/// lattice-sized buffer less at the peak).
+pub fn local_mean_of(power: Vec<f32>, dims: [usize; 3], radius: [usize; 3]) -> LocalMean {
     let n = dims[0] * dims[1] * dims[2];
     debug_assert_eq!(power.len(), n);
-    let mut sum: Vec<f32> = power
-        .iter()
-        .map(|&p| if p.is_finite() { p } else { 0.0 })
-        .collect();
     let mut cnt: Vec<f32> = power
         .iter()
         .map(|&p| if p.is_finite() { 1.0 } else { 0.0 })
         .collect();
+    let mut sum = power;
+    sum.iter_mut().for_each(|p| {
+        if !p.is_finite() {
+            *p = 0.0
+        }
+    });
     let strides = [1, dims[0], dims[0] * dims[1]];
     let mut prefix: Vec<f64> = Vec::new();
     for axis in 0..3 {

@@ -30,7 +30,10 @@
 //!    in parallel (rayon) from the same snapshot. Voxels are detected against the bare-terrain
 //!    prediction, imaged alongside from the terrain model's echoes with the same noise variance
 //!    ([`super::detection`]), at `false_alarms_per_image` expected false detections over the
-//!    resolution cells the pass tests (at most `false_alarm_probability` per voxel).
+//!    resolution cells the pass tests (at most `false_alarm_probability` per voxel). The
+//!    incoherent image `P` of that test only raises a voxel's threshold, so on the exact path it
+//!    is formed last, over the bricks holding a voxel that passes without it (a third of the
+//!    fine voxels on the quick bundled site), from the frames' excess power packed two to a slot.
 //!
 //! Only bricks and points inside the region (its `region_polygon`, if any) are imaged, and a
 //! pair keeps only detections in front of its panel ([`in_front_of_panel`]): a panel with a
@@ -68,7 +71,7 @@ use super::coarse_range::{coarse_range_kernel, filter_rows};
 use super::detection::{
     alias_is_stronger, alias_window_m, cell_peak, coherence_factor, detected, direct_path_guard_m,
     effective_looks, image_false_alarm_probability, layer_looks_per_voxel, layer_window,
-    local_mean, pareto_factor, CfarFactors, NadirBand,
+    local_mean, local_mean_of, pareto_factor, CfarFactors, NadirBand,
 };
 use super::sidelobes::{sidelobes, PairPsf};
 use super::world::World;
@@ -169,6 +172,9 @@ pub struct PairStats {
     pub coarse_voxels: usize,
     /// Fine voxels imaged (active bricks).
     pub fine_voxels: usize,
+    /// Fine voxels of the incoherent image `P` of the clutter test: the bricks holding a voxel
+    /// that could pass it (all of them on the factorised path).
+    pub incoherent_voxels: usize,
     /// Fine voxels of the whole region.
     pub region_voxels: usize,
     /// Voxel × profile updates of both passes.
@@ -686,7 +692,12 @@ fn image_guarded(
     } else {
         (0..ne).collect()
     };
+    // With the clutter test on the exact path the incoherent image `P` is formed after the
+    // others, over the bricks where a voxel could still pass (see below): one more pass over
+    // the frames.
+    let defer_incoherent = clutter_ref && !factorised;
     let total = (2 * nt + tx_c_idx.len()) as u64
+        + if defer_incoherent { nt as u64 } else { 0 }
         + if coherence {
             coherence_elems.len() as u64
         } else {
@@ -894,7 +905,7 @@ fn image_guarded(
         };
         for (f, &tx) in tx_fine.iter().enumerate() {
             gather(f, &mut (0..ne), &mut prof, &mut mprof);
-            if clutter_ref {
+            if clutter_ref && !defer_incoherent {
                 excess_power_of(&prof, &mprof, &mut iprof);
             }
             let t = Instant::now();
@@ -923,7 +934,9 @@ fn image_guarded(
                 progress(done, total);
                 continue;
             }
-            push_bricks_f32(&mut accs_i, &bricks, |b| &b.bp_inc, tx, &iprof, geo.n_bins)?;
+            if !defer_incoherent {
+                push_bricks_f32(&mut accs_i, &bricks, |b| &b.bp_inc, tx, &iprof, geo.n_bins)?;
+            }
             push_bricks_f32(&mut accs_m, &bricks, |b| &b.bp, tx, &mprof, geo.n_bins)?;
             match &mut accs {
                 Accs::F32(v) => push_bricks_f32(v, &bricks, |b| &b.bp, tx, &prof, geo.n_bins)?,
@@ -963,6 +976,29 @@ fn image_guarded(
         }
     }
     drop(table);
+    // The incoherent pass below reads only the excess power `|s|² − |m|²` of each frame: packed
+    // two to a slot into the front of the terrain model's frames (frame-major, as they are),
+    // and the rest of that buffer released, so that the pass holds half of it.
+    let excess: Vec<Complex32> = if defer_incoherent {
+        let mut m = std::mem::take(&mut mframes);
+        for i in 0..m.len() {
+            let (f, k) = (i / (ne * nb), i % (ne * nb));
+            let (e, bin) = (k / nb, k % nb);
+            let x = frames[(e * nt + f) * nb + bin].norm_sqr() - m[i].norm_sqr();
+            // Slot i/2 ≤ i was read before (in-place, forward).
+            let slot = &mut m[i / 2];
+            if i % 2 == 0 {
+                slot.re = x;
+            } else {
+                slot.im = x;
+            }
+        }
+        m.truncate(m.len().div_ceil(2));
+        m.shrink_to_fit();
+        m
+    } else {
+        Vec::new()
+    };
     if coherence {
         // The receive-coherence pass: by reciprocity (the bistatic range is symmetric in its two
         // ends) one receive element with every transmit position is a snapshot of has-dsp, and
@@ -1004,12 +1040,20 @@ fn image_guarded(
             stats.backprojections += (offset * coherence_elems.len() * tx_fine.len()) as f64;
         }
     }
+    // The terrain model's frames are read no more (on the exact path their excess power was
+    // packed above).
     drop(mframes);
     if opts.fixed_point {
         img = qimg;
     }
+    // The data and, with the clutter test, the terrain model's image; the incoherent one is
+    // counted where it is formed.
     stats.backprojections +=
-        (if clutter_ref { 3 } else { 1 } * offset * rx_fine.len() * tx_fine.len()) as f64;
+        (if clutter_ref { 2 } else { 1 } * offset * rx_fine.len() * tx_fine.len()) as f64;
+    if clutter_ref && !defer_incoherent {
+        stats.incoherent_voxels = offset;
+        stats.backprojections += (offset * rx_fine.len() * tx_fine.len()) as f64;
+    }
     stats.synth_s = src.synth_s + model.as_ref().map_or(0.0, |m| m.synth_s);
     stats.visible_scatterers = src.first_visible;
 
@@ -1039,12 +1083,65 @@ fn image_guarded(
                 pm[gidx(b, i)] = img_m[b.offset + i].norm_sqr();
             }
         }
-        let c = local_mean(&pm, fdims, radius);
+        let c = local_mean_of(pm, fdims, radius);
+        if defer_incoherent {
+            // `P ≥ 0` only raises the threshold: a voxel below `α·C` (or the coherence test)
+            // fails whatever `P` is. `P` is imaged over the bricks holding a voxel that passes
+            // both, frame by frame in the same order as the other images (its bits there are
+            // those of the pass over every brick); elsewhere it stays 0 and is never read.
+            let could_pass: Vec<bool> = bricks
+                .par_iter()
+                .map(|b| {
+                    (0..b.bp.voxels()).any(|i| {
+                        let (j, g) = (b.offset + i, gidx(b, i));
+                        let q = img_r.get(j).copied();
+                        detected(
+                            img[j].norm_sqr(),
+                            c.mean[g],
+                            0.0,
+                            q,
+                            alpha.alpha(c.count[g]),
+                            beta,
+                        )
+                    })
+                })
+                .collect();
+            let chosen: Vec<&Brick> = bricks
+                .iter()
+                .zip(&could_pass)
+                .filter_map(|(b, &k)| k.then_some(b))
+                .collect();
+            let mut accs_i: Vec<AccF32<'_>> = brick_accs_f32(&bricks, &mut img_i, |b| &b.bp_inc)?
+                .into_iter()
+                .zip(&could_pass)
+                .filter_map(|(a, &k)| k.then_some(a))
+                .collect();
+            stats.incoherent_voxels = chosen.iter().map(|b| b.bp.voxels()).sum();
+            stats.backprojections += (stats.incoherent_voxels * ne * nt) as f64;
+            for (f, &tx) in tx_fine.iter().enumerate() {
+                for (k, z) in iprof.iter_mut().enumerate() {
+                    let i = f * ne * nb + k;
+                    let pair = excess[i / 2];
+                    *z = Complex32::new(if i % 2 == 0 { pair.re } else { pair.im }, 0.0);
+                }
+                let t = Instant::now();
+                push_bricks_f32(&mut accs_i, &chosen, |b| &b.bp_inc, tx, &iprof, geo.n_bins)?;
+                stats.bp_s += t.elapsed().as_secs_f64();
+                done += 1;
+                progress(done, total);
+            }
+        }
+        drop(excess);
         // The model's second moment over the same window: how spiky the terrain's clutter is
         // there ([`super::detection::pareto_factor`]).
-        pm.iter_mut().for_each(|x| *x *= *x);
-        let c2 = local_mean(&pm, fdims, radius).mean;
-        drop(pm);
+        let mut pm = vec![f32::NAN; stats.region_voxels];
+        for b in &bricks {
+            for i in 0..b.bp.voxels() {
+                let p = img_m[b.offset + i].norm_sqr();
+                pm[gidx(b, i)] = p * p;
+            }
+        }
+        let c2 = local_mean_of(pm, fdims, radius).mean;
         let looks_per_voxel = layer_looks_per_voxel(v, geo.cell_m3, geo.cell_vertical_m);
         let (lambda, bandwidth_hz) = (
             sc.wavelength_m() as f32,
@@ -1553,9 +1650,9 @@ fn brick_slices<'a>(bricks: &[Brick], buf: &'a mut [f32]) -> Vec<&'a mut [f32]> 
 
 /// Pushes one snapshot (transmit position `tx`, `profiles` of every receive element) into every
 /// brick's accumulator, bricks in parallel.
-fn push_bricks_f32(
+fn push_bricks_f32<B: std::borrow::Borrow<Brick> + Sync>(
     accs: &mut [AccF32<'_>],
-    bricks: &[Brick],
+    bricks: &[B],
     bp_of: fn(&Brick) -> &Backprojector,
     tx: Vec3,
     profiles: &[Complex32],
@@ -1564,6 +1661,7 @@ fn push_bricks_f32(
     accs.par_iter_mut()
         .zip(bricks.par_iter())
         .try_for_each(|(acc, b)| {
+            let b: &Brick = b.borrow();
             bp_of(b).push_snapshot(
                 acc,
                 &Snapshot {
