@@ -1072,18 +1072,23 @@ fn image_guarded(
         stats.false_alarm_probability = pfa;
         let (radius, alpha) = cfar_window(&geo, v, pfa);
         let beta = coherence_factor(pfa);
-        let mut pm = vec![f32::NAN; stats.region_voxels];
         let gidx = |b: &Brick, i: usize| {
             let d = b.bp.grid().dims;
             let (x, y, z) = (i % d[0], (i / d[0]) % d[1], i / (d[0] * d[1]));
             (b.start[0] + x) + fdims[0] * ((b.start[1] + y) + fdims[1] * (b.start[2] + z))
         };
-        for b in &bricks {
-            for i in 0..b.bp.voxels() {
-                pm[gidx(b, i)] = img_m[b.offset + i].norm_sqr();
+        // `f(|I_m|²)` of the terrain model's image on the region lattice, NaN where no brick was
+        // imaged.
+        let model_lattice = |f: fn(f32) -> f32| {
+            let mut pm = vec![f32::NAN; stats.region_voxels];
+            for b in &bricks {
+                for i in 0..b.bp.voxels() {
+                    pm[gidx(b, i)] = f(img_m[b.offset + i].norm_sqr());
+                }
             }
-        }
-        let c = local_mean_of(pm, fdims, radius);
+            pm
+        };
+        let c = local_mean_of(model_lattice(|p| p), fdims, radius);
         if defer_incoherent {
             // `P ≥ 0` only raises the threshold: a voxel below `α·C` (or the coherence test)
             // fails whatever `P` is. `P` is imaged over the bricks holding a voxel that passes
@@ -1134,14 +1139,7 @@ fn image_guarded(
         drop(excess);
         // The model's second moment over the same window: how spiky the terrain's clutter is
         // there ([`super::detection::pareto_factor`]).
-        let mut pm = vec![f32::NAN; stats.region_voxels];
-        for b in &bricks {
-            for i in 0..b.bp.voxels() {
-                let p = img_m[b.offset + i].norm_sqr();
-                pm[gidx(b, i)] = p * p;
-            }
-        }
-        let c2 = local_mean_of(pm, fdims, radius).mean;
+        let c2 = local_mean_of(model_lattice(|p| p * p), fdims, radius).mean;
         let looks_per_voxel = layer_looks_per_voxel(v, geo.cell_m3, geo.cell_vertical_m);
         let (lambda, bandwidth_hz) = (
             sc.wavelength_m() as f32,

@@ -159,6 +159,21 @@ impl PulseTable {
         self.tail.get(k).copied().unwrap_or(0.0)
     }
 
+    /// The range bound: whether an echo of power `a2` lies above `b2` times the pulse's power
+    /// beyond the clearance from zero of path differences in `[lo, hi]` bins (none when the
+    /// interval straddles zero).
+    fn above_tail(&self, lo: f32, hi: f32, b2: f32, a2: f32) -> bool {
+        let r = if lo > 0.0 {
+            lo
+        } else if hi < 0.0 {
+            -hi
+        } else {
+            return false;
+        };
+        let p0 = self.at(0.0).norm();
+        p0 > 0.0 && a2 > b2 * (self.bound_beyond(r) / p0).powi(2)
+    }
+
     /// `p(x)` at `x` bins, linearly interpolated; 0 beyond the pulse's reach.
     fn at(&self, x: f32) -> Complex32 {
         let u = (x + self.half_bins) * Self::STEPS;
@@ -323,15 +338,7 @@ impl PairPsf<'_> {
             (ac + dc - ah - dh - margin) * inv_bin,
             (ac + dc + ah + dh + margin) * inv_bin,
         );
-        let r = if lo > 0.0 {
-            lo
-        } else if hi < 0.0 {
-            -hi
-        } else {
-            return false;
-        };
-        let p0 = table.at(0.0).norm();
-        p0 > 0.0 && a2 > b2 * (table.bound_beyond(r) / p0).powi(2)
+        table.above_tail(lo, hi, b2, a2)
     }
 
     /// Whether an echo of power `a2` at `v` is no stronger than the sidelobe an echo of power
@@ -387,19 +394,8 @@ impl PairPsf<'_> {
         let ((a_lo, a_hi), (d_lo, d_hi)) = (span(&scratch.tx), span(&scratch.rx));
         let inv_bin = 1.0 / self.bin_m;
         let (lo, hi) = ((a_lo + d_lo) * inv_bin, (a_hi + d_hi) * inv_bin);
-        let r = if lo > 0.0 {
-            lo
-        } else if hi < 0.0 {
-            -hi
-        } else {
-            0.0
-        };
-        let p0 = table.at(0.0).norm();
-        if r > 0.0 && p0 > 0.0 {
-            let bound = (table.bound_beyond(r) / p0).powi(2);
-            if a2 > b2 * bound {
-                return false;
-            }
+        if table.above_tail(lo, hi, b2, a2) {
+            return false;
         }
         if let Some((rho_lo, rho_hi)) = self.relative_power_bounds(table, scratch, (d_lo, d_hi)) {
             if a2 > b2 * rho_hi {
