@@ -94,7 +94,9 @@
 //! **Where a pair saw through, a denial whatever the facing** (`imaging.free_space_test`). A
 //! second pass adds the positive evidence of free space ([`super::free_space`]): pair `j` denies
 //! `p` when one of its legs to a point two pairs kept or confirm, and that the first pass kept,
-//! passed through `p` to more than the support distance beyond it. Unlike a seeing pair's silence
+//! passed through `p` to more than the support distance beyond it, crossing the whole layer in
+//! which the surface through `p` may lie (the pairs' resolutions across `p`'s plane; a leg that
+//! grazes a roof refutes none of the roof's points). Unlike a seeing pair's silence
 //! this needs no facing: the facing protects a surface from pairs behind it, but a leg that ran
 //! on through `p` to a surface farther away says that nothing opaque stood at `p`, whichever way
 //! a patch through `p` would face. The smear of a bright wall's top edge over a roof has the
@@ -107,11 +109,11 @@ use glam::Vec3;
 use rayon::prelude::*;
 
 use super::facing::faces_a_pair;
-use super::free_space::FreeSpace;
+use super::free_space::{Across, FreeSpace};
+use super::pair_cell::resolution_along_m;
+pub use super::pair_cell::PairCell;
 use crate::knn::PointIndex;
 use crate::scene::Scene;
-use crate::sensors::{pair_resolution_axes, PlanarArray, VirtualAperture};
-use glam::DMat3;
 
 /// Cosine of the largest angle between the normals of two points of one flat patch (30°): the
 /// own-sight test's probes around a leg's crossing find the patch it pierces, not a corner where
@@ -136,61 +138,6 @@ pub struct PairSight<'a> {
     /// The pair's resolution cell ([`PairCell`]); `None`: a detection within the support
     /// distance confirms whatever its offset.
     pub cell: Option<PairCell>,
-}
-
-/// What a pair resolves at a place: its panel, its aperture, the carrier's wavelength and the
-/// bandwidth ([`crate::sensors::pair_resolution_axes`]), and the lattice's voxel edge, which
-/// blurs every offset between two imaged points by up to one voxel per axis.
-#[derive(Clone, Debug)]
-pub struct PairCell {
-    /// The base station's receive panel.
-    pub array: PlanarArray,
-    /// The terminal's transmit track.
-    pub aperture: VirtualAperture,
-    /// Carrier wavelength, metres.
-    pub wavelength_m: f32,
-    /// Bandwidth, Hz.
-    pub bandwidth_hz: f32,
-    /// Imaging voxel edge, metres.
-    pub voxel_m: f32,
-}
-
-impl PairCell {
-    /// The pair's information matrix at `p`, `J = Σ a aᵀ/δ'²` over its four resolved directions
-    /// `a` with resolutions `δ' = √(δ² + v²)` (voxel `v`).
-    fn information(&self, p: Vec3) -> DMat3 {
-        let v2 = (self.voxel_m as f64).powi(2);
-        let mut j = DMat3::ZERO;
-        for (a, d) in pair_resolution_axes(
-            p,
-            &self.array,
-            &self.aperture,
-            self.wavelength_m,
-            self.bandwidth_hz,
-        ) {
-            let a = a.as_dvec3();
-            let w = 1.0 / ((d as f64).powi(2) + v2).max(1e-12);
-            j += DMat3::from_cols(a * a.x, a * a.y, a * a.z) * w;
-        }
-        j
-    }
-
-    /// Whether the pair could have placed an echo from `p` at `q`: the offset within one
-    /// resolution cell, across the surface through `p` where it has one (normal `n`: along the
-    /// surface a pair detects a surface's cells sparsely, and the support distance bounds the
-    /// offset), in every direction otherwise.
-    fn resolves_apart(&self, p: Vec3, q: Vec3, normal: Option<Vec3>) -> bool {
-        let j = self.information(p);
-        let d = (q - p).as_dvec3();
-        match normal {
-            Some(n) => {
-                let n = n.as_dvec3();
-                let across = d.dot(n);
-                across * across * n.dot(j * n) > 1.0
-            }
-            None => d.dot(j * d) > 1.0,
-        }
-    }
 }
 
 /// What the pairs say of one fused point (module docs).
@@ -221,6 +168,21 @@ pub fn tallies(
     )
 }
 
+/// The free-space pass of [`confirmed`] ([`super::free_space`]): legs pass through points within
+/// `half_width_m` of them; `planes[i]` is the normal of the plane through point `i` (a
+/// [`super::facing::test_normals`]; none past the slice's end: any leg through the point
+/// denies it).
+#[derive(Clone, Copy, Debug)]
+pub struct FreeSpaceTest<'a> {
+    /// A leg passes through a point within this distance of it, metres.
+    pub half_width_m: f32,
+    /// Each point's plane normal.
+    pub planes: &'a [Vec3],
+    /// Each pair's resolution cell (none past the slice's end: the pair places its points
+    /// exactly).
+    pub cells: &'a [PairCell],
+}
+
 /// Which points survive the confirmation: those whose denials are fewer than `need` per
 /// confirmation ([`tallies`], module docs; `need` = 0 keeps every point).
 #[allow(clippy::too_many_arguments)]
@@ -233,7 +195,7 @@ pub fn confirmed(
     support_m: f32,
     own_sight: bool,
     need: u8,
-    free_space_m: Option<f32>,
+    free_space: Option<FreeSpaceTest<'_>>,
 ) -> Vec<bool> {
     if need == 0 {
         return vec![true; points.len()];
@@ -249,7 +211,12 @@ pub fn confirmed(
         Some(need),
         None,
     );
-    let Some(half_width_m) = free_space_m else {
+    let Some(FreeSpaceTest {
+        half_width_m,
+        planes,
+        cells,
+    }) = free_space
+    else {
         return first.into_iter().map(|t| kept(t, need)).collect();
     };
     // The legs of the pairs to the points two of them kept or confirm (its confirmations are
@@ -261,7 +228,35 @@ pub fn confirmed(
         .map(|(&t, m)| kept(t, need) && (m.count_ones() > 1 || t.confirmed > 1))
         .collect();
     let sensors: Vec<[Vec3; 2]> = sights.iter().map(|s| [s.rx, s.tx]).collect();
-    let free = FreeSpace::new(points, mask, &ends_leg, &sensors, half_width_m, support_m);
+    let free = FreeSpace::new(
+        points,
+        mask,
+        &ends_leg,
+        &sensors,
+        cells,
+        half_width_m,
+        support_m,
+    );
+    // Each point's plane, and how far across it the point may lie from the surface: the finest
+    // resolution across it among the pairs that kept the point (zero where no pair's cell is
+    // known: the point is where it was placed).
+    let across: Vec<Option<Across>> = points
+        .par_iter()
+        .zip(mask)
+        .enumerate()
+        .map(|(i, (&p, &m))| {
+            planes.get(i).map(|&normal| Across {
+                normal,
+                sigma_m: cells
+                    .iter()
+                    .enumerate()
+                    .filter(|&(k, _)| k < 64 && (m >> k) & 1 == 1)
+                    .map(|(_, c)| resolution_along_m(&c.information(p), normal))
+                    .reduce(f32::min)
+                    .unwrap_or(0.0),
+            })
+        })
+        .collect();
     count(
         points,
         mask,
@@ -271,7 +266,7 @@ pub fn confirmed(
         support_m,
         own_sight,
         Some(need),
-        Some(&free),
+        Some((&free, &across)),
     )
     .into_iter()
     .map(|t| kept(t, need))
@@ -295,7 +290,7 @@ fn count(
     support_m: f32,
     own_sight: bool,
     need: Option<u8>,
-    free: Option<&FreeSpace>,
+    free: Option<(&FreeSpace, &[Option<Across>])>,
 ) -> Vec<Tally> {
     let r2 = support_m * support_m;
     // A pair past the 64 recorded in the mask may have kept the point: it counts as keeping it.
@@ -446,9 +441,7 @@ fn count(
                     }
                     // Otherwise its detection here is not an echo from `p` (a sidelobe or
                     // smear of what it does see): no word either way.
-                } else if free
-                    .is_some_and(|f| f.pair_saw_through(p, k, facing.get(i).copied().flatten()))
-                {
+                } else if free.is_some_and(|(f, across)| f.pair_saw_through(p, k, across[i])) {
                     // Its leg to a surface beyond `p` passed through `p`: free space
                     // ([`super::free_space`]), a denial whatever `p`'s facing.
                     t.denied = t.denied.saturating_add(1);
@@ -576,6 +569,7 @@ mod tests {
     use super::*;
     use crate::imaging::facing::own_surface_normals;
     use crate::scene::Scene;
+    use crate::sensors::{PlanarArray, VirtualAperture};
 
     fn denials(
         points: &[Vec3],

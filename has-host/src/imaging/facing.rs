@@ -100,6 +100,22 @@ pub fn own_surface_normals(
         return Ok(Vec::new());
     }
     let normals = test_normals(points, sensors, support_m, SURFACE_POINTS)?;
+    own_surfaces(points, &normals, link_m, cell_m)
+}
+
+/// [`own_surface_normals`] from each point's normal `normals[i]` (a [`test_normals`]).
+///
+/// # Errors
+/// As [`PointIndex::new`]: non-finite points.
+pub fn own_surfaces(
+    points: &[Vec3],
+    normals: &[Vec3],
+    link_m: f32,
+    cell_m: f32,
+) -> Result<Vec<Option<Vec3>>, GeometryError> {
+    if points.is_empty() {
+        return Ok(Vec::new());
+    }
     let index = PointIndex::new("points", points)?;
     let links: Vec<Vec<u32>> = points
         .par_iter()
@@ -140,7 +156,7 @@ pub fn own_surface_normals(
     Ok(roots
         .iter()
         .zip(normals)
-        .map(|(&r, n)| spans[r as usize].then_some(n))
+        .map(|(&r, &n)| spans[r as usize].then_some(n))
         .collect())
 }
 

@@ -20,16 +20,27 @@
 //! `(q − e)/|q − e|` — the leg passes within `ε` of `p` — and `q` lies beyond `p` by more than
 //! the support distance ([`super::run::support_distance_m`]: nearer than that, `q` is `p`'s own
 //! surface). `ε` is half the imaging voxel: a fused point stands on the voxel lattice, and a leg
-//! within half a voxel of it crosses its voxel. Where `p` lies on a patch with a facing `n̂`
-//! ([`super::facing`]), the leg must cross that patch: the sensor and `q` on opposite sides of
-//! its plane, `q` by more than half the support distance. A leg that grazes along a roof to the
-//! roof's far part keeps to the roof's plane, and the roof's imaged points scatter about that
-//! plane by up to a resolution cell: such a leg passes near them without crossing anything.
+//! within half a voxel of it crosses its voxel.
+//!
+//! **Crossing the layer the surface may lie in.** Where `p` has a plane (its PCA normal `n̂`,
+//! [`super::facing::test_normals`]), the leg must cross it: the sensor and `q` on opposite sides
+//! of the plane, `q` by more than half the support distance. And the leg must cross the whole
+//! layer in which the surface `p` stands for may lie: the pairs that placed `p` placed it to
+//! within `σ_p` across `n̂` (the finest of their resolutions along `n̂`, [`super::pair_cell`]),
+//! and the leg itself is known to within its end's resolution across `n̂`, scaled by
+//! `|p − e|/|q − e|` toward the sensor (`σ_leg`). A leg at angle `θ` to the plane crosses the
+//! layer `±σ = ±√(σ_p² + σ_leg²)` over `σ/tan θ` along it on either side of `p`; it pierces the
+//! patch `p` stands for (the support distance around it) only when `tan θ ≥ σ/support`. A leg
+//! that grazes a roof to a wall beyond it passes through roof points imaged a few decimetres
+//! above the roof while clearing the roof itself; with a vehicle's metre-scale vertical cell
+//! that roof point is not refuted by any leg flatter than about 25°, with a UAV's decimetre cell
+//! by any steeper than a few degrees.
 //!
 //! Units: metres; world frame.
 
-use glam::Vec3;
+use glam::{DMat3, Vec3};
 
+use super::pair_cell::{resolution_along_m, PairCell};
 use crate::knn::PointIndex;
 
 /// The legs of one pair end, pointing at the points it ends on.
@@ -38,6 +49,20 @@ struct Legs {
     directions: PointIndex,
     /// Each leg's end, metres.
     ends: Vec<Vec3>,
+    /// The leg's pair's information matrix at each end ([`PairCell`]), where the pair's cell is
+    /// known: how far across a surface the end may lie from where the pair placed it.
+    information: Vec<Option<DMat3>>,
+}
+
+/// The surface a point would stand on: its plane's normal and how far across that plane the
+/// point may lie from the surface (the finest resolution across it among the pairs that placed
+/// the point), metres.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Across {
+    /// Unit normal of the plane through the point.
+    pub normal: Vec3,
+    /// The point's uncertainty across the plane, metres.
+    pub sigma_m: f32,
 }
 
 /// The free space the pairs' legs ran through (module docs).
@@ -53,14 +78,15 @@ pub struct FreeSpace {
 }
 
 impl FreeSpace {
-    /// The legs of every pair `k` (sensors `sensors[k]`: panel centre, aperture centre) to the
-    /// points `i` with bit `k` of `mask[i]` set and `ends_leg[i]` true; legs pass through points
-    /// within `half_width_m` of them.
+    /// The legs of every pair `k` (sensors `sensors[k]`: panel centre, aperture centre; its
+    /// resolution cell `cells[k]` where known) to the points `i` with bit `k` of `mask[i]` set
+    /// and `ends_leg[i]` true; legs pass through points within `half_width_m` of them.
     pub fn new(
         points: &[Vec3],
         mask: &[u64],
         ends_leg: &[bool],
         sensors: &[[Vec3; 2]],
+        cells: &[PairCell],
         half_width_m: f32,
         support_m: f32,
     ) -> FreeSpace {
@@ -68,6 +94,7 @@ impl FreeSpace {
             .iter()
             .enumerate()
             .map(|(k, ends)| {
+                let cell = cells.get(k);
                 ends.map(|e| {
                     let (directions, ends): (Vec<Vec3>, Vec<Vec3>) = points
                         .iter()
@@ -77,9 +104,17 @@ impl FreeSpace {
                         .map(|((&q, _), _)| ((q - e).normalize_or_zero(), q))
                         .filter(|(d, _)| *d != Vec3::ZERO)
                         .unzip();
+                    let information = ends
+                        .iter()
+                        .map(|&q| cell.map(|c| c.information(q)))
+                        .collect();
                     PointIndex::new("legs", &directions)
                         .ok()
-                        .map(|directions| Legs { directions, ends })
+                        .map(|directions| Legs {
+                            directions,
+                            ends,
+                            information,
+                        })
                 })
             })
             .collect();
@@ -91,9 +126,9 @@ impl FreeSpace {
         }
     }
 
-    /// Whether a leg of pair `k` passed through `p` (module docs); `normal`: the facing of the
-    /// patch `p` lies on, if it has one.
-    pub fn pair_saw_through(&self, p: Vec3, k: usize, normal: Option<Vec3>) -> bool {
+    /// Whether a leg of pair `k` passed through `p` (module docs); `plane`: the surface `p`
+    /// would stand on, if it has one.
+    pub fn pair_saw_through(&self, p: Vec3, k: usize, plane: Option<Across>) -> bool {
         let (Some(sensors), Some(legs)) = (self.sensors.get(k), self.legs.get(k)) else {
             return false;
         };
@@ -112,18 +147,31 @@ impl FreeSpace {
                 .iter()
                 .any(|&(j, _)| {
                     let q = legs.ends[j as usize];
-                    (q - e).length() > r + self.support_m
-                        && normal.is_none_or(|n| {
+                    let length = (q - e).length();
+                    length > r + self.support_m
+                        && plane.is_none_or(|Across { normal: n, sigma_m }| {
                             let (a, b) = ((e - p).dot(n), (q - p).dot(n));
-                            a * b < 0.0 && b.abs() > 0.5 * self.support_m
+                            // The leg's own uncertainty where it passes `p`: its end's across
+                            // the plane, scaled down toward the sensor.
+                            let leg_m = legs.information[j as usize]
+                                .map_or(0.0, |info| resolution_along_m(&info, n) * r / length);
+                            let sigma = sigma_m.hypot(leg_m);
+                            // The leg crosses the layer the surface may lie in within the
+                            // support distance of `p`: tan θ ≥ σ / support, θ the angle
+                            // between the leg and the plane.
+                            let sin = ((q - e) / length).dot(n).abs();
+                            let cos = (1.0 - sin * sin).max(0.0).sqrt();
+                            a * b < 0.0
+                                && b.abs() > 0.5 * self.support_m
+                                && sin * self.support_m >= sigma * cos
                         })
                 })
         })
     }
 
     /// Whether any pair's leg passed through `p`.
-    pub fn seen_through(&self, p: Vec3, normal: Option<Vec3>) -> bool {
-        (0..self.sensors.len()).any(|k| self.pair_saw_through(p, k, normal))
+    pub fn seen_through(&self, p: Vec3, plane: Option<Across>) -> bool {
+        (0..self.sensors.len()).any(|k| self.pair_saw_through(p, k, plane))
     }
 }
 
@@ -147,7 +195,15 @@ mod tests {
     fn a_point_on_a_leg_to_a_surface_behind_it_is_free_space_and_one_beside_it_is_not() {
         let (pts, mask) = wall();
         let sensors = [[Vec3::ZERO, Vec3::new(0.0, 0.0, 0.1)]; 2];
-        let fs = FreeSpace::new(&pts, &mask, &vec![true; pts.len()], &sensors, 0.25, 2.0);
+        let fs = FreeSpace::new(
+            &pts,
+            &mask,
+            &vec![true; pts.len()],
+            &sensors,
+            &[],
+            0.25,
+            2.0,
+        );
         // Halfway along the leg to (20, 1, 2.5).
         assert!(fs.seen_through(Vec3::new(10.0, 0.5, 1.25), None));
         // Off every leg: below the wall's foot, seen from above it.
@@ -162,14 +218,65 @@ mod tests {
     fn only_points_that_end_a_leg_carve_and_a_leg_along_a_patch_crosses_nothing() {
         let (pts, mask) = wall();
         let sensors = [[Vec3::ZERO, Vec3::ZERO]];
-        let none = FreeSpace::new(&pts, &mask, &vec![false; pts.len()], &sensors, 0.25, 2.0);
+        let none = FreeSpace::new(
+            &pts,
+            &mask,
+            &vec![false; pts.len()],
+            &sensors,
+            &[],
+            0.25,
+            2.0,
+        );
         assert!(!none.seen_through(Vec3::new(10.0, 0.5, 1.25), None));
-        let fs = FreeSpace::new(&pts, &mask, &vec![true; pts.len()], &sensors, 0.25, 2.0);
+        let fs = FreeSpace::new(
+            &pts,
+            &mask,
+            &vec![true; pts.len()],
+            &sensors,
+            &[],
+            0.25,
+            2.0,
+        );
         // A patch whose plane holds the leg (normal across it): the leg runs along it.
         let p = Vec3::new(10.0, 0.5, 1.25);
         let along = Vec3::new(0.0, 1.0, -0.2).cross(p).normalize();
-        assert!(!fs.seen_through(p, Some(along)));
+        let plane = |normal| {
+            Some(Across {
+                normal,
+                sigma_m: 0.0,
+            })
+        };
+        assert!(!fs.seen_through(p, plane(along)));
         // A patch the leg crosses.
-        assert!(fs.seen_through(p, Some(Vec3::X)));
+        assert!(fs.seen_through(p, plane(Vec3::X)));
+    }
+
+    #[test]
+    fn a_leg_flatter_than_the_layer_the_surface_may_lie_in_refutes_nothing() {
+        // A sensor 12 m up and a point two pairs kept 40 m on, 8 m up: the leg passes a roof
+        // point at (20, 0, 10) at tan θ = 0.1 to the roof's plane.
+        let e = Vec3::new(0.0, 0.0, 12.0);
+        let q = Vec3::new(40.0, 0.0, 8.0);
+        let fs = FreeSpace::new(&[q], &[1], &[true], &[[e, e]], &[], 0.25, 2.0);
+        let p = Vec3::new(20.0, 0.0, 10.0);
+        let roof = |sigma_m| {
+            Some(Across {
+                normal: Vec3::Z,
+                sigma_m,
+            })
+        };
+        // Placed to 0.1 m across the roof: the leg crosses that layer within 1 m of the point
+        // (tan θ 0.1 ≥ 0.1/2).
+        assert!(fs.seen_through(p, roof(0.1)));
+        // Placed to 0.5 m: the leg may clear a roof 0.5 m lower for 5 m past the point, beyond
+        // the support distance; it says nothing.
+        assert!(!fs.seen_through(p, roof(0.5)));
+        // The same point on a wall the leg crosses at a right angle is refuted at any σ within
+        // the support distance.
+        let wall = Some(Across {
+            normal: (q - e).normalize(),
+            sigma_m: 1.9,
+        });
+        assert!(fs.seen_through(p, wall));
     }
 }

@@ -12,6 +12,7 @@ pub mod finer_height;
 pub mod free_space;
 pub mod hidden_roofs;
 pub mod outline_walls;
+pub mod pair_cell;
 pub mod run;
 pub mod sidelobes;
 pub mod surface;

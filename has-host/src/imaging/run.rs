@@ -28,9 +28,9 @@ use std::collections::HashMap;
 use glam::Vec3;
 
 use super::centroid::smear_to_centroid;
-use super::confirmation::{confirmed, PairCell, PairSight};
+use super::confirmation::{confirmed, FreeSpaceTest, PairCell, PairSight};
 use super::driver::{image_pair, survey_pair, ImagingError, PairImage, PairPlan, RunOptions};
-use super::facing::own_surface_normals;
+use super::facing::{own_surfaces, test_normals, SURFACE_POINTS};
 use super::finer_height::placed_finer;
 use super::terrain_echo::{terrain_echoes, TerrainLayer};
 use super::world::{Terrain, World};
@@ -724,13 +724,7 @@ pub fn confirm(
                 tx,
                 detections: idx.as_ref(),
                 ground: ground.as_ref(),
-                cell: sc.imaging.resolved_confirmation.then(|| PairCell {
-                    array: a.clone(),
-                    aperture: sc.aperture(p.aperture, p.positions),
-                    wavelength_m: sc.wavelength_m() as f32,
-                    bandwidth_hz: (sc.radar.bandwidth_mhz * 1e6) as f32,
-                    voxel_m: sc.imaging.voxel_m,
-                }),
+                cell: sc.imaging.resolved_confirmation.then(|| pair_cell(sc, p)),
             }
         })
         .collect();
@@ -740,10 +734,19 @@ pub fn confirm(
     // has a facing, as before.
     // Two fused points lie on one patch when they are lattice neighbours (diagonals included);
     // a patch is a surface of its own when it spans the coarsest resolution cell.
-    let facing = own_surface_normals(
+    // Each point's plane (its PCA normal), whether or not it spans a cell: the free-space test
+    // asks how a leg crosses it.
+    let cells: Vec<PairCell> = plans.iter().map(|p| pair_cell(sc, p)).collect();
+    let planes = test_normals(
         &fused.points,
         &sensors_of(&observing_pairs(sc, plans, &fused)),
         support,
+        SURFACE_POINTS,
+    )
+    .unwrap_or_default();
+    let facing = own_surfaces(
+        &fused.points,
+        &planes,
         1.01 * 3f32.sqrt() * sc.imaging.voxel_m,
         2.0 * support,
     )
@@ -757,15 +760,28 @@ pub fn confirm(
         support,
         sc.imaging.own_sight_test,
         need,
-        sc.imaging
-            .free_space_test
-            .then_some(0.5 * sc.imaging.voxel_m),
+        sc.imaging.free_space_test.then_some(FreeSpaceTest {
+            half_width_m: 0.5 * sc.imaging.voxel_m,
+            planes: &planes,
+            cells: &cells,
+        }),
     );
     let unconfirmed = keep.iter().filter(|&&k| !k).count();
     FusedCloud {
         unconfirmed,
         pair_ground_echoes,
         ..fused.retain(&keep)
+    }
+}
+
+/// A pair's resolution cell ([`PairCell`]) over the lattice's voxel.
+pub(crate) fn pair_cell(sc: &Scenario, plan: &PairPlan) -> PairCell {
+    PairCell {
+        array: sc.array(plan.bs).clone(),
+        aperture: sc.aperture(plan.aperture, plan.positions),
+        wavelength_m: sc.wavelength_m() as f32,
+        bandwidth_hz: (sc.radar.bandwidth_mhz * 1e6) as f32,
+        voxel_m: sc.imaging.voxel_m,
     }
 }
 

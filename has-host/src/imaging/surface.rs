@@ -101,10 +101,13 @@ use rayon::prelude::*;
 
 use super::facing::test_normals;
 pub use super::facing::{faces_a_pair, TEST_NORMAL_SUPPORT_FRACTION};
-use super::free_space::FreeSpace;
+use super::free_space::{Across, FreeSpace};
 use super::hidden_roofs::{hidden_roofs, standing_on, Footprint, RoofOptions};
 use super::outline_walls::outline_walls;
-use super::run::{observing_pairs, pair_sensors, sensors_of, support_distance_m, RunResult};
+use super::pair_cell::PairCell;
+use super::run::{
+    observing_pairs, pair_cell, pair_sensors, sensors_of, support_distance_m, RunResult,
+};
 use super::valleys::valleys;
 use super::wall_columns::{roof_edge_walls, wall_columns};
 use super::world::Terrain;
@@ -425,17 +428,28 @@ pub fn surface(
         if sc.imaging.free_space_test && points.len() > detected {
             let fused = &result.fused;
             let two: Vec<bool> = fused.pairs.iter().map(|&n| n > 1).collect();
+            let cells: Vec<PairCell> = result.plans.iter().map(|p| pair_cell(sc, p)).collect();
             let free = FreeSpace::new(
                 &fused.points,
                 &fused.pair_mask,
                 &two,
                 &pair_sensors(sc, &result.plans),
+                &cells,
                 0.5 * voxel,
                 support,
             );
             let keep: Vec<bool> = (0..points.len())
                 .into_par_iter()
-                .map(|i| i < detected || !free.seen_through(points[i], Some(normals[i])))
+                .map(|i| {
+                    i < detected
+                        || !free.seen_through(
+                            points[i],
+                            Some(Across {
+                                normal: normals[i],
+                                sigma_m: 0.0,
+                            }),
+                        )
+                })
                 .collect();
             free_space_samples = keep.iter().filter(|&&k| !k).count();
             retain_kept(&mut points, &keep);

@@ -326,10 +326,10 @@ pub struct ImagingSpec {
     #[serde(default = "default_true")]
     pub own_sight_test: bool,
     /// A pair denies a fused point that one of its legs to a point two pairs kept farther on
-    /// passed through: free space ([`crate::imaging::free_space`]). The mesh's inferred samples
-    /// are not placed there either. Off by default: it removes the smear over the real sites'
-    /// roofs, and true roof points on a held-out procedural site (docs/journal/real-sites.md).
-    #[serde(default)]
+    /// passed through, across the layer the point's surface may lie in: free space
+    /// ([`crate::imaging::free_space`]). The mesh's inferred samples are not placed there
+    /// either.
+    #[serde(default = "default_true")]
     pub free_space_test: bool,
     /// Drop a pair's detections that are no stronger than the sidelobe a stronger echo of its
     /// own image puts there, by the pair's point-spread function
