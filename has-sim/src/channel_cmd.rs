@@ -1,6 +1,6 @@
 //! `has-sim channel [SCENARIO] --out DIR [--quick] [--twin MESH.obj]`: the paper's §2 — ray-trace
-//! one BS to every UE on the true scene and on the digital twin (the reconstructed mesh, built by
-//! `reconstruct` unless `--twin` gives one), match the multipath sets, and report error
+//! one BS to every UE on the true scene and on the digital twin (the planar twin `reconstruct`
+//! builds, unless `--twin` gives a mesh), match the multipath sets, and report error
 //! percentiles, CDFs, the UE map and beam-selection agreement.
 //!
 //! The experiment is the scenario's `[channel]` table (`has_host::scenario::ChannelSpec`), run
@@ -43,7 +43,9 @@ pub struct ChannelArgs {
     /// quick-preset twin when it is reconstructed here.
     #[arg(long)]
     pub quick: bool,
-    /// The twin mesh (OBJ or PLY) to ray-trace; default: run `reconstruct` into DIR/twin first.
+    /// The twin mesh (OBJ or PLY) to ray-trace; default: run `reconstruct` into DIR/twin first
+    /// and trace its planar twin (twin.obj; its Poisson mesh, mesh.obj, where no planar twin was
+    /// built).
     #[arg(long)]
     pub twin: Option<PathBuf>,
 }

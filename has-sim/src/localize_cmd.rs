@@ -1,6 +1,7 @@
 //! `has-sim localize [SCENARIO] --out DIR [--quick] [--twin MESH.obj]`: the paper's §3 — a
 //! monostatic base station detects and localizes a cylinder crossing the factory yard, with ECA
-//! alone and with the environment prior from the reconstructed mesh; writes `report.json` (key
+//! alone and with the environment prior from the digital twin (the planar twin `reconstruct`
+//! builds, or the mesh `--twin` names); writes `report.json` (key
 //! `localize`), `report.md`, `report.html`, detections PLY and PNG plots (paper Fig. 11 and
 //! range–Doppler maps).
 //! The run, the report and the files' data are `has_host::localize`'s (`run_localize`,
@@ -36,7 +37,8 @@ pub struct LocalizeArgs {
     #[arg(long)]
     pub quick: bool,
     /// The digital twin (OBJ/PLY/XML mesh of the reconstructed environment). Default: run
-    /// `reconstruct` on the same scenario into DIR/twin and use its mesh.obj.
+    /// `reconstruct` on the same scenario into DIR/twin and use its planar twin (twin.obj; its
+    /// Poisson mesh, mesh.obj, where no planar twin was built).
     #[arg(long, conflicts_with = "truth_twin")]
     pub twin: Option<PathBuf>,
     /// Use the true scene's buildings (every object but the `[localize] ground_objects`) as the

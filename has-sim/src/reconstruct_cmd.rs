@@ -10,6 +10,7 @@ use clap::Args;
 use has_host::html::{Layer, MESH_COLOUR};
 use has_host::imaging::{self, RunOptions};
 use has_host::io::{save_cloud, save_mesh};
+use has_host::material::Material;
 use has_host::reconstruction::{
     self, shard, Prepared, ReconstructError, ReconstructOptions, ReconstructRunReport,
     Reconstruction, Shard, ShardRecord,
@@ -267,13 +268,36 @@ fn write_html(
     md: &str,
     (truth, fused): (&[glam::Vec3], &[glam::Vec3]),
     mesh: Option<&has_host::mesh::TriMesh>,
+    twin: Option<&has_host::twin::solid::Solid>,
 ) -> Result<()> {
+    use has_host::twin::solid::{Face, Provenance, Surface};
     let mut layers = vec![
         Layer::points("ground truth (area samples)", [150, 150, 150], truth, 2),
         Layer::points("fused cloud", [20, 70, 200], fused, 3),
     ];
     if let Some(mesh) = mesh {
-        layers.push(Layer::mesh("mesh", MESH_COLOUR, mesh));
+        layers.push(Layer::mesh("Poisson mesh", MESH_COLOUR, mesh));
+    }
+    // The planar twin's faces on a detected plane and its inferred faces, in two colours.
+    let inferred = |f: &Face| matches!(f.provenance, Provenance::Inferred { .. });
+    let shown = |f: &Face| f.surface != Surface::GroundSurface;
+    let twin_meshes = twin.map(|solid| {
+        (
+            solid.triangulate(|f| shown(f) && !inferred(f)).0,
+            solid.triangulate(|f| shown(f) && inferred(f)).0,
+        )
+    });
+    if let Some((on_plane, guessed)) = &twin_meshes {
+        layers.push(Layer::mesh(
+            "planar twin: faces on a detected plane",
+            [200, 40, 40],
+            on_plane,
+        ));
+        layers.push(Layer::mesh(
+            "planar twin: inferred faces",
+            [240, 150, 20],
+            guessed,
+        ));
     }
     crate::html_report::write(
         out,
@@ -294,15 +318,21 @@ fn write_html(
 
 /// Runs `reconstruct` on `scenario` (default: the bundled factory), with the quick preset if
 /// `quick`: the library's digital twin ([`Prepared::reconstruct_twin`]), with every file of
-/// `reconstruct` written into `out`; returns the path of the mesh it wrote (`out/mesh.obj`), which
-/// `channel` and `localize` ray-trace when no mesh is given.
+/// `reconstruct` written into `out`; returns the path of the twin it wrote, which `channel` and
+/// `localize` ray-trace when no twin is given: the planar twin (`out/twin.obj`), or the Poisson
+/// mesh (`out/mesh.obj`) where no planar twin could be built (the report says why).
 pub fn build_twin(scenario: Option<PathBuf>, out: &Path, quick: bool) -> Result<PathBuf> {
     let args = ReconstructArgs::defaults(scenario, out, quick);
-    execute(&args, |p, progress, _| {
+    let report = execute(&args, |p, progress, _| {
         Ok(p.reconstruct_twin(progress)?.into_reconstruction())
     })
     .context("reconstructing the digital twin")?;
-    Ok(out.join("mesh.obj"))
+    let planar = report
+        .reconstruction
+        .planar_twin
+        .as_ref()
+        .is_some_and(|t| t.metrics.is_some());
+    Ok(out.join(if planar { "twin.obj" } else { "mesh.obj" }))
 }
 
 /// Checks the options that only the later stages use, so that a bad value fails before the
@@ -526,7 +556,7 @@ pub const SHARD_RECORD: &str = "shard.json";
 
 /// The files `reconstruct` writes into its output directory ([`crate::run_dir`]); `--shard`
 /// writes `pair_*.ply` and [`SHARD_RECORD`], and each mode removes the other's.
-pub const OUTPUTS: [&str; 14] = [
+pub const OUTPUTS: [&str; 19] = [
     SHARD_RECORD,
     "report.json",
     "report.md",
@@ -541,6 +571,11 @@ pub const OUTPUTS: [&str; 14] = [
     "fused_side.png",
     "mesh_top.png",
     "mesh_side.png",
+    "twin.xml",
+    "twin_building_*.ply",
+    "twin.obj",
+    "twin.ply",
+    "twin.city.json",
 ];
 
 /// Runs the command line's `reconstruct`: one shard ([`run_shard`]) with `--shard`, else
@@ -749,6 +784,9 @@ fn execute(
     if let Some(surf) = &rec.surface {
         write_mesh_files(&args.out, &rec, surf)?;
     }
+    if let Some(tw) = &rec.planar_twin {
+        crate::twin_cmd::write_twin_files(&args.out, &tw.solid, Material::Concrete, Vec::new())?;
+    }
     let mut report = ReconstructRunReport {
         scenario: scenario_name,
         preset: if args.quick { "quick" } else { "default" },
@@ -774,6 +812,7 @@ fn execute(
         &md,
         (&rec.world.truth, &rec.result.fused.points),
         rec.surface.as_ref().map(|s| &s.mesh),
+        rec.planar_twin.as_ref().map(|t| &t.solid),
     )?;
     let r = &report.reconstruction;
     if let Some(m) = &r.mesh {

@@ -121,13 +121,19 @@ pub fn run(a: TwinArgs) -> Result<()> {
                 })?,
         ),
     };
-    let mut sc = Scenario::load(&scenario_path).with_context(|| {
-        format!(
-            "{}: field scenario = {} (give --scenario FILE if it moved)",
-            report_path.display(),
-            scenario_path.display()
-        )
-    })?;
+    // A run of the bundled scenario records the bundled scenario's name, not a file.
+    let (bundled, bundled_name) = crate::reconstruct_cmd::load_scenario(None)?;
+    let mut sc = if a.scenario.is_none() && scenario_path == Path::new(&bundled_name) {
+        bundled
+    } else {
+        Scenario::load(&scenario_path).with_context(|| {
+            format!(
+                "{}: field scenario = {} (give --scenario FILE if it moved)",
+                report_path.display(),
+                scenario_path.display()
+            )
+        })?
+    };
     if report.get("preset").and_then(Value::as_str) == Some("quick") {
         sc.apply_quick();
     }
@@ -183,7 +189,35 @@ pub fn run(a: TwinArgs) -> Result<()> {
     );
     rep.mesh = mesh;
 
-    let solid = &tw.solid;
+    let json =
+        serde_json::to_vec_pretty(&serde_json::json!({ "twin": rep, "build_seconds": build_s }))?;
+    let md = rep.render();
+    write_twin_files(
+        &a.out,
+        &tw.solid,
+        material,
+        vec![
+            (a.out.join("twin_report.json"), json),
+            (a.out.join("twin_report.md"), md.clone().into_bytes()),
+        ],
+    )?;
+    write_views(&a.out, &tw.solid, &truth, density, seed, &md)?;
+    run_dir.finish()?;
+    print!("{md}");
+    println!("built in {build_s:.1} s; wrote {}", a.out.display());
+    Ok(())
+}
+
+/// `twin.obj` (one object per building, a group per semantic surface), `twin.ply`,
+/// `twin.city.json` (CityJSON 2.0, LoD2), and the Sionna RT scene `twin.xml` with its
+/// `twin_building_*.ply`, every face of `material`; `with` (files and their bytes) are written
+/// together with `twin.obj` and `twin.city.json`, checked before any of them is.
+pub fn write_twin_files(
+    out: &Path,
+    solid: &twin::solid::Solid,
+    material: has_host::material::Material,
+    with: Vec<(PathBuf, Vec<u8>)>,
+) -> Result<()> {
     let (tri, owner) = solid.triangulate(|_| true);
     let mut obj = Vec::new();
     writeln!(
@@ -220,29 +254,22 @@ pub fn run(a: TwinArgs) -> Result<()> {
     };
     let city = serde_json::to_vec(&cityjson::document(solid))?;
     let radio = twin::sionna::scene(solid, material);
-    let json =
-        serde_json::to_vec_pretty(&serde_json::json!({ "twin": rep, "build_seconds": build_s }))?;
-    let md = rep.render();
-    has_host::io::write_files(&[
-        (a.out.join("twin.obj"), obj),
-        (a.out.join("twin.city.json"), city),
-        (a.out.join("twin_report.json"), json),
-        (a.out.join("twin_report.md"), md.clone().into_bytes()),
-    ])?;
+    let mut first = vec![
+        (out.join("twin.obj"), obj),
+        (out.join("twin.city.json"), city),
+    ];
+    first.extend(with);
+    has_host::io::write_files(&first)?;
     ply::write_ply(
-        &a.out.join("twin.ply"),
+        &out.join("twin.ply"),
         &ply_data,
         PlyFormat::BinaryLittleEndian,
     )?;
     for (file, mesh) in &radio.meshes {
-        ply::write_ply(&a.out.join(file), mesh, PlyFormat::BinaryLittleEndian)?;
+        ply::write_ply(&out.join(file), mesh, PlyFormat::BinaryLittleEndian)?;
     }
     // The scene last: it names the meshes.
-    has_host::io::write_files(&[(a.out.join("twin.xml"), radio.xml.into_bytes())])?;
-    write_views(&a.out, solid, &truth, density, seed, &md)?;
-    run_dir.finish()?;
-    print!("{md}");
-    println!("built in {build_s:.1} s; wrote {}", a.out.display());
+    has_host::io::write_files(&[(out.join("twin.xml"), radio.xml.into_bytes())])?;
     Ok(())
 }
 
@@ -256,21 +283,9 @@ fn ground_height(sc: &Scenario, objects: &[has_host::Object], points: &[Vec3]) -
     if ground.is_empty() || points.is_empty() {
         bail!("no ground object to stand the twin on");
     }
-    let lo = points.iter().fold(Vec3::splat(f32::MAX), |m, &p| m.min(p));
-    let hi = points.iter().fold(Vec3::splat(f32::MIN), |m, &p| m.max(p));
     let scene = has_host::Scene::new(ground)?;
-    let c = (lo + hi) * 0.5;
-    let top = scene.bounds().1.z.max(hi.z) + 1.0;
-    let hit = scene
-        .closest_hit(Vec3::new(c.x, c.y, top), Vec3::NEG_Z, 0.0, f32::INFINITY)
-        .ok_or_else(|| {
-            anyhow!(
-                "no ground under the cloud's centre ({:.1}, {:.1})",
-                c.x,
-                c.y
-            )
-        })?;
-    Ok(hit.point.z as f64)
+    twin::ground_height_under(&scene, points)
+        .ok_or_else(|| anyhow!("no ground under the fused cloud's centre"))
 }
 
 /// `twin_top.png`, `twin_side.png` (area samples of the faces on a detected plane, red, and of

@@ -2,7 +2,8 @@
 //! three stages (each would otherwise rebuild the same twin): `has-sim channel --quick`
 //! reconstructs the quick twin into `DIR/twin` (the same run as `has-sim reconstruct --quick`)
 //! and predicts channels on it; the reconstruction is held to the point-cloud and mesh quality
-//! its preset is documented to reach; `has-sim localize --quick --twin DIR/twin/mesh.obj` runs
+//! its preset is documented to reach, and its planar twin is that of `has-sim twin` on its files;
+//! `has-sim localize --quick --twin DIR/twin/mesh.obj` runs
 //! both clutter-suppression modes against that twin. Bad input of each command is tested in its
 //! own file (`reconstruct_quick.rs`, `channel_quick.rs`, `localize_quick.rs`).
 
@@ -88,6 +89,11 @@ fn quick_factory_reconstruction_meets_its_documented_bounds() {
             "mesh.ply",
             "mesh_top.png",
             "mesh_input.ply",
+            "twin.obj",
+            "twin.ply",
+            "twin.city.json",
+            "twin.xml",
+            "twin_building_0.ply",
         ],
     );
     common::assert_html_renders(&out);
@@ -533,4 +539,41 @@ fn quick_localization_meets_its_documented_bounds() {
     );
     common::assert_html_renders(&out);
     let _ = std::fs::remove_dir_all(&out);
+}
+
+#[test]
+fn the_planar_twin_of_the_run_is_the_twin_command_s_of_its_files() {
+    let run = pipeline().join("twin");
+    let report = common::read_report(&run);
+    let t = &report["planar_twin"];
+    assert!(t["error"].is_null(), "{t}");
+    assert_eq!(t["watertight"].as_bool(), Some(true), "{t}");
+    let cd = t["metrics"]["cloud"]["sqrt_chamfer_m"]
+        .as_f64()
+        .expect("planar_twin.metrics.cloud.sqrt_chamfer_m");
+    assert!(cd.is_finite() && cd > 0.0, "{cd}");
+    // `has-sim twin` rebuilds it from the run's files (fused.ply, pair_*.ply, report.json): the
+    // same faces, byte for byte.
+    let again = Path::new(env!("CARGO_TARGET_TMPDIR")).join("quick-pipeline-twin-again");
+    let _ = std::fs::remove_dir_all(&again);
+    let o = Command::new(env!("CARGO_BIN_EXE_has-sim"))
+        .arg("twin")
+        .arg(&run)
+        .arg("--out")
+        .arg(&again)
+        .output()
+        .expect("has-sim runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    for f in [
+        "twin.obj",
+        "twin.city.json",
+        "twin.xml",
+        "twin_building_0.ply",
+    ] {
+        let (a, b) = (
+            std::fs::read(run.join(f)).expect(f),
+            std::fs::read(again.join(f)).expect(f),
+        );
+        assert!(a == b, "{f} differs between the run and `has-sim twin`");
+    }
 }

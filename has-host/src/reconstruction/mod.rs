@@ -154,8 +154,30 @@ pub struct Reconstruction {
     pub surface: Option<Surface>,
     /// Area samples of the mesh at the truth's density (what its metrics were computed on).
     pub mesh_samples: Vec<Vec3>,
+    /// The planar twin ([`crate::twin`]) of the fused cloud, built beside the mesh (`None` where
+    /// the surface stage was skipped or the twin could not be built: the report says why).
+    pub planar_twin: Option<crate::twin::Twin>,
     /// The figures.
     pub report: ReconstructReport,
+}
+
+/// The planar twin's figures in a run ([`crate::twin`]).
+#[derive(Clone, Debug, Serialize)]
+pub struct PlanarTwinReport {
+    /// Its walls and roofs scored as the mesh is (`None` when it was not built).
+    pub metrics: Option<crate::twin::TwinMetrics>,
+    /// Faces: total, walls, roofs, ground.
+    pub faces: [usize; 4],
+    /// Faces no detected plane supports (inferred).
+    pub inferred_faces: usize,
+    /// Buildings (connected footprints).
+    pub buildings: usize,
+    /// Closed, every edge of two faces.
+    pub watertight: bool,
+    /// Build and scoring time, seconds.
+    pub seconds: f64,
+    /// Why the twin was not built, if it was not.
+    pub error: Option<String>,
 }
 
 /// A digital twin ([`reconstruct_twin`], [`Prepared::reconstruct_twin`]): a reconstruction with
@@ -379,6 +401,8 @@ pub struct ReconstructReport {
     pub imaging: ImagingReport,
     /// The mesh (`None` when skipped).
     pub mesh: Option<MeshReport>,
+    /// The planar twin (`None` when the surface stage was skipped).
+    pub planar_twin: Option<PlanarTwinReport>,
     /// Definitions.
     pub conventions: Conventions,
     /// Timings.
@@ -700,6 +724,13 @@ impl Imaged<'_> {
                 (Some(surf), samples, Some(m))
             }
         };
+        let (planar_twin, planar_twin_report) = match &mesh {
+            None => (None, None),
+            Some(m) => {
+                let (t, r) = planar_twin_stage(sc, &world, &result, m.sample_density_per_m2);
+                (t, Some(r))
+            }
+        };
         let report = ReconstructReport {
             path: if opts.run.fixed_point {
                 "fixed_point_q15"
@@ -709,6 +740,7 @@ impl Imaged<'_> {
             echo: self.echo,
             imaging,
             mesh,
+            planar_twin: planar_twin_report,
             conventions: Conventions {
                 chamfer: "eq. 2: mean over S1 of min squared distance to S2 plus mean over S2 of min squared distance to S1; reported as sqrt (m)",
                 fscore: "eq. 3: 2PR/(P+R), P = % of S1 within d of S2, R = % of S2 within d of S1 (strict <)",
@@ -731,8 +763,90 @@ impl Imaged<'_> {
             result,
             surface,
             mesh_samples,
+            planar_twin,
             report,
         })
+    }
+}
+
+/// Builds the planar twin of the fused cloud ([`crate::twin::build`]) on the known terrain's
+/// height, with the pairs' clouds as its views, and scores it as the mesh is scored (area
+/// samples at `density_per_m2`). A twin that cannot be built (no known terrain, no building in
+/// the evidence) is not an error of the run: the report says why.
+fn planar_twin_stage(
+    sc: &Scenario,
+    world: &World,
+    result: &RunResult,
+    density_per_m2: f64,
+) -> (Option<crate::twin::Twin>, PlanarTwinReport) {
+    use crate::twin::{self, solid::Provenance, TwinError, TwinInput};
+    let t = Instant::now();
+    let fused = &result.fused;
+    let built = (|| -> Result<(twin::Twin, twin::TwinMetrics), TwinError> {
+        let ground_z = world
+            .terrain
+            .known
+            .then(|| twin::ground_height_under(&world.terrain.scene, &fused.points))
+            .flatten()
+            .ok_or_else(|| TwinError::BadInput {
+                field: "imaging.ground_objects",
+                value: format!("{:?}", sc.imaging.ground_objects),
+                expected: "ground objects under the fused cloud's centre",
+            })?;
+        let points: Vec<&[Vec3]> = result.images.iter().map(|im| &im.points[..]).collect();
+        let views = twin::pair_views(sc, &result.plans, &points);
+        let tw = twin::build(&TwinInput {
+            points: &fused.points,
+            weights: &fused.weight,
+            voxel_m: f64::from(sc.imaging.voxel_m),
+            ground_z,
+            views: &views,
+        })?;
+        let metrics = twin::score(
+            &tw.solid,
+            &world.truth,
+            &world.truth_triangles,
+            density_per_m2,
+            sc.imaging.seed.wrapping_add(3),
+        )?;
+        Ok((tw, metrics))
+    })();
+    match built {
+        Ok((tw, metrics)) => {
+            let solid = &tw.solid;
+            let count = |s| solid.faces.iter().filter(|f| f.surface == s).count();
+            let report = PlanarTwinReport {
+                metrics: Some(metrics),
+                faces: [
+                    solid.faces.len(),
+                    count(twin::solid::Surface::WallSurface),
+                    count(twin::solid::Surface::RoofSurface),
+                    count(twin::solid::Surface::GroundSurface),
+                ],
+                inferred_faces: solid
+                    .faces
+                    .iter()
+                    .filter(|f| matches!(f.provenance, Provenance::Inferred { .. }))
+                    .count(),
+                buildings: solid.buildings,
+                watertight: solid.triangulate(|_| true).0.topology().watertight,
+                seconds: t.elapsed().as_secs_f64(),
+                error: None,
+            };
+            (Some(tw), report)
+        }
+        Err(e) => (
+            None,
+            PlanarTwinReport {
+                metrics: None,
+                faces: [0; 4],
+                inferred_faces: 0,
+                buildings: 0,
+                watertight: false,
+                seconds: t.elapsed().as_secs_f64(),
+                error: Some(e.to_string()),
+            },
+        ),
     }
 }
 

@@ -141,6 +141,49 @@ impl ReconstructRunReport {
                 )?;
             }
         }
+        if let Some(t) = &r.planar_twin {
+            match (&t.metrics, &t.error) {
+                (Some(tm), _) => {
+                    writeln!(
+                        s,
+                        "\n| planar twin (`twin.obj`, `twin.city.json`, `twin.xml`) | this run |"
+                    )?;
+                    writeln!(s, "|---|---|")?;
+                    writeln!(
+                        s,
+                        "| √Chamfer distance | {:.3} m |",
+                        tm.cloud.sqrt_chamfer_m
+                    )?;
+                    let f = &tm.cloud.fscores;
+                    writeln!(
+                        s,
+                        "| F-score (d = 1.5 m) | {:.1} (P {:.1}, R {:.1}) |",
+                        f.fscore_1_5m, f.precision_1_5m, f.recall_1_5m
+                    )?;
+                    writeln!(
+                        s,
+                        "| false surface (area > 1.5 m from the truth) / area against the truth's | {:.1} % / {:.2} |",
+                        tm.area.false_surface_pct, tm.area.area_ratio
+                    )?;
+                    writeln!(
+                        s,
+                        "| faces: walls / roofs / ground (inferred) | {} / {} / {} ({}) in {} buildings, watertight: {}; {:.1} s |",
+                        t.faces[1],
+                        t.faces[2],
+                        t.faces[3],
+                        t.inferred_faces,
+                        t.buildings,
+                        t.watertight,
+                        t.seconds
+                    )?;
+                }
+                (None, e) => writeln!(
+                    s,
+                    "\nPlanar twin: not built ({}).",
+                    e.as_deref().unwrap_or("no reason recorded")
+                )?,
+            }
+        }
         let obs = |v: Option<&ObservableCompleteness>, observable: bool| {
             let part = v.and_then(|v| if observable { v.observable } else { v.hidden });
             match part {

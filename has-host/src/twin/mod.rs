@@ -328,6 +328,49 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
     })
 }
 
+/// The height of the known terrain under the centre of `points`' extent: the first surface of
+/// `terrain` a ray straight down from above both meets there, metres; `None` where it meets
+/// none.
+pub fn ground_height_under(terrain: &crate::Scene, points: &[Vec3]) -> Option<f64> {
+    if points.is_empty() {
+        return None;
+    }
+    let lo = points.iter().fold(Vec3::splat(f32::MAX), |m, &p| m.min(p));
+    let hi = points.iter().fold(Vec3::splat(f32::MIN), |m, &p| m.max(p));
+    let c = (lo + hi) * 0.5;
+    let top = terrain.bounds().1.z.max(hi.z) + 1.0;
+    terrain
+        .closest_hit(Vec3::new(c.x, c.y, top), Vec3::NEG_Z, 0.0, f32::INFINITY)
+        .map(|h| h.point.z as f64)
+}
+
+/// What each imaged pair saw and where it stood, as [`TwinInput::views`] takes it: pair `k`'s
+/// points `points[k]`, its base station's position and its terminal track's centre, in the
+/// order of the pairs' names (`BS-aperture`), the order `has-sim twin` reads a run's pair files
+/// in, so that a twin built from a run's files and one built in the run agree.
+pub fn pair_views(
+    sc: &crate::scenario::Scenario,
+    plans: &[crate::imaging::PairPlan],
+    points: &[&[Vec3]],
+) -> Vec<enclosure::PairView> {
+    let mut named: Vec<(&str, enclosure::PairView)> = plans
+        .iter()
+        .zip(points)
+        .map(|(p, pts)| {
+            (
+                p.name.as_str(),
+                enclosure::PairView {
+                    points: pts.to_vec(),
+                    receiver: Vec3::from(sc.base_stations[p.bs].position).as_dvec3(),
+                    transmitter: sc.aperture(p.aperture, 2).centre().as_dvec3(),
+                },
+            )
+        })
+        .collect();
+    named.sort_by(|a, b| a.0.cmp(b.0));
+    named.into_iter().map(|(_, v)| v).collect()
+}
+
 /// The twin scored as `reconstruct` scores its mesh.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct TwinMetrics {
