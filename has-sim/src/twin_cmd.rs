@@ -208,7 +208,8 @@ pub fn run(a: TwinArgs) -> Result<()> {
     Ok(())
 }
 
-/// `twin.obj` (one object per building, a group per semantic surface), `twin.ply`,
+/// `twin.obj` (one object per building, a group per semantic surface, each with `usemtl
+/// itu_<material>` as `mesh.obj` has), `twin.ply`,
 /// `twin.city.json` (CityJSON 2.0, LoD2), and the Sionna RT scene `twin.xml` with its
 /// `twin_building_*.ply`, every face of `material`; `with` (files and their bytes) are written
 /// together with `twin.obj` and `twin.city.json`, checked before any of them is.
@@ -238,6 +239,7 @@ pub fn write_twin_files(
             Surface::GroundSurface,
         ] {
             writeln!(obj, "g building_{b}_{s:?}")?;
+            writeln!(obj, "usemtl itu_{}", material.name())?;
             // Triangles (a merged face need not be convex, and readers fan polygons).
             for (t, &fi) in tri.faces.iter().zip(&owner) {
                 let f = &solid.faces[fi as usize];
