@@ -191,19 +191,17 @@ mod tests {
         (pts, mask)
     }
 
+    /// The legs from `sensors` to the wall's points (every point ends one when `ends`), half
+    /// width 0.25 m, support distance 2 m, no pair's cell known.
+    fn over_wall(pts: &[Vec3], mask: &[u64], ends: bool, sensors: &[[Vec3; 2]]) -> FreeSpace {
+        FreeSpace::new(pts, mask, &vec![ends; pts.len()], sensors, &[], 0.25, 2.0)
+    }
+
     #[test]
     fn a_point_on_a_leg_to_a_surface_behind_it_is_free_space_and_one_beside_it_is_not() {
         let (pts, mask) = wall();
         let sensors = [[Vec3::ZERO, Vec3::new(0.0, 0.0, 0.1)]; 2];
-        let fs = FreeSpace::new(
-            &pts,
-            &mask,
-            &vec![true; pts.len()],
-            &sensors,
-            &[],
-            0.25,
-            2.0,
-        );
+        let fs = over_wall(&pts, &mask, true, &sensors);
         // Halfway along the leg to (20, 1, 2.5).
         assert!(fs.seen_through(Vec3::new(10.0, 0.5, 1.25), None));
         // Off every leg: below the wall's foot, seen from above it.
@@ -218,25 +216,9 @@ mod tests {
     fn only_points_that_end_a_leg_carve_and_a_leg_along_a_patch_crosses_nothing() {
         let (pts, mask) = wall();
         let sensors = [[Vec3::ZERO, Vec3::ZERO]];
-        let none = FreeSpace::new(
-            &pts,
-            &mask,
-            &vec![false; pts.len()],
-            &sensors,
-            &[],
-            0.25,
-            2.0,
-        );
+        let none = over_wall(&pts, &mask, false, &sensors);
         assert!(!none.seen_through(Vec3::new(10.0, 0.5, 1.25), None));
-        let fs = FreeSpace::new(
-            &pts,
-            &mask,
-            &vec![true; pts.len()],
-            &sensors,
-            &[],
-            0.25,
-            2.0,
-        );
+        let fs = over_wall(&pts, &mask, true, &sensors);
         // A patch whose plane holds the leg (normal across it): the leg runs along it.
         let p = Vec3::new(10.0, 0.5, 1.25);
         let along = Vec3::new(0.0, 1.0, -0.2).cross(p).normalize();
