@@ -34,6 +34,9 @@
 //!    incoherent image `P` of that test only raises a voxel's threshold, so on the exact path it
 //!    is formed last, over the bricks holding a voxel that passes without it (a third of the
 //!    fine voxels on the quick bundled site), from the frames' excess power packed two to a slot.
+//!    With the receive-coherence test the terrain model's image is formed after the data image
+//!    too: it is read only through the window means of voxels that pass that test, which reads
+//!    no model, so it is formed over the bricks those windows reach and nowhere else.
 //!
 //! Only bricks and points inside the region (its `region_polygon`, if any) are imaged, and a
 //! pair keeps only detections in front of its panel ([`in_front_of_panel`]): a panel with a
@@ -869,6 +872,12 @@ fn image_guarded(
     // With the coherence test, in f32 the receive-coherence pass is the data image itself.
     let mut img_r = vec![0f32; if coherence { offset } else { 0 }];
     let data_per_frame = !coherence || opts.fixed_point || factorised;
+    // The terrain model's image is read only through `C`, the mean of its power over the CFAR
+    // window of a voxel that passes the receive-coherence test, which reads no model: on the
+    // exact f32 path it is formed after that test, over the bricks such windows touch
+    // ([`model_bricks`]); elsewhere it stays unformed (NaN in the window means), and no voxel
+    // there can be detected.
+    let defer_model = clutter_ref && !data_per_frame;
     let fz = if factorised {
         let fact = Factorisation {
             sub_rows: im.subarray,
@@ -888,7 +897,11 @@ fn image_guarded(
     let mut iprof = mprof.clone();
     {
         let mut accs_i = brick_accs_f32(&bricks, &mut img_i, |b| &b.bp_inc)?;
-        let mut accs_m = brick_accs_f32(&bricks, &mut img_m, |b| &b.bp)?;
+        let mut accs_m = if defer_model {
+            Vec::new()
+        } else {
+            brick_accs_f32(&bricks, &mut img_m, |b| &b.bp)?
+        };
         let mut accs = if opts.fixed_point {
             let mut v = Vec::with_capacity(bricks.len());
             let mut rest: &mut [num_complex::Complex<i64>] = &mut raw_q;
@@ -903,7 +916,12 @@ fn image_guarded(
         } else {
             Accs::F32(Vec::new())
         };
-        for (f, &tx) in tx_fine.iter().enumerate() {
+        let frame_loop = if defer_model {
+            &tx_fine[..0]
+        } else {
+            &tx_fine[..]
+        };
+        for (f, &tx) in frame_loop.iter().enumerate() {
             gather(f, &mut (0..ne), &mut prof, &mut mprof);
             if clutter_ref && !defer_incoherent {
                 excess_power_of(&prof, &mprof, &mut iprof);
@@ -979,23 +997,9 @@ fn image_guarded(
     // The incoherent pass below reads only the excess power `|s|² − |m|²` of each frame: packed
     // two to a slot into the front of the terrain model's frames (frame-major, as they are),
     // and the rest of that buffer released, so that the pass holds half of it.
-    let excess: Vec<Complex32> = if defer_incoherent {
-        let mut m = std::mem::take(&mut mframes);
-        for i in 0..m.len() {
-            let (f, k) = (i / (ne * nb), i % (ne * nb));
-            let (e, bin) = (k / nb, k % nb);
-            let x = frames[(e * nt + f) * nb + bin].norm_sqr() - m[i].norm_sqr();
-            // Slot i/2 ≤ i was read before (in-place, forward).
-            let slot = &mut m[i / 2];
-            if i % 2 == 0 {
-                slot.re = x;
-            } else {
-                slot.im = x;
-            }
-        }
-        m.truncate(m.len().div_ceil(2));
-        m.shrink_to_fit();
-        m
+    // With the model deferred, after its pass below.
+    let mut excess: Vec<Complex32> = if defer_incoherent && !defer_model {
+        pack_excess(&frames, std::mem::take(&mut mframes), [nt, ne, nb])
     } else {
         Vec::new()
     };
@@ -1040,16 +1044,59 @@ fn image_guarded(
             stats.backprojections += (offset * coherence_elems.len() * tx_fine.len()) as f64;
         }
     }
+    // The per-voxel false-alarm probability of the fine pass's tests: the stated false
+    // detections per image over the resolution cells this pass tests, at most
+    // `false_alarm_probability`.
+    let pfa = image_false_alarm_probability(
+        im.false_alarms_per_image,
+        offset,
+        v,
+        geo.cell_m3,
+        im.false_alarm_probability,
+    );
+    let (radius, alpha) = cfar_window(&geo, v, pfa);
+    let beta = coherence_factor(pfa);
+    let model_formed: Vec<bool> = if defer_model {
+        let chosen = model_bricks(&bricks, &img, &img_r, beta, radius, n_bricks);
+        let mut accs_m: Vec<AccF32<'_>> = brick_accs_f32(&bricks, &mut img_m, |b| &b.bp)?
+            .into_iter()
+            .zip(&chosen)
+            .filter_map(|(a, &k)| k.then_some(a))
+            .collect();
+        let picked: Vec<&Brick> = bricks
+            .iter()
+            .zip(&chosen)
+            .filter_map(|(b, &k)| k.then_some(b))
+            .collect();
+        let model_voxels: usize = picked.iter().map(|b| b.bp.voxels()).sum();
+        stats.backprojections += (model_voxels * ne * nt) as f64;
+        for (f, &tx) in tx_fine.iter().enumerate() {
+            let t = Instant::now();
+            let mprof = &mframes[f * ne * nb..(f + 1) * ne * nb];
+            push_bricks_f32(&mut accs_m, &picked, |b| &b.bp, tx, mprof, nb)?;
+            stats.bp_s += t.elapsed().as_secs_f64();
+            done += 1;
+            progress(done, total);
+        }
+        drop(accs_m);
+        if defer_incoherent {
+            excess = pack_excess(&frames, std::mem::take(&mut mframes), [nt, ne, nb]);
+        }
+        chosen
+    } else {
+        if clutter_ref {
+            stats.backprojections += (offset * ne * nt) as f64;
+        }
+        vec![true; bricks.len()]
+    };
     // The terrain model's frames are read no more (on the exact path their excess power was
     // packed above).
     drop(mframes);
     if opts.fixed_point {
         img = qimg;
     }
-    // The data and, with the clutter test, the terrain model's image; the incoherent one is
-    // counted where it is formed.
-    stats.backprojections +=
-        (if clutter_ref { 2 } else { 1 } * offset * rx_fine.len() * tx_fine.len()) as f64;
+    // The data image; the model's is counted above, the incoherent one where it is formed.
+    stats.backprojections += (offset * rx_fine.len() * tx_fine.len()) as f64;
     if clutter_ref && !defer_incoherent {
         stats.incoherent_voxels = offset;
         stats.backprojections += (offset * rx_fine.len() * tx_fine.len()) as f64;
@@ -1059,19 +1106,8 @@ fn image_guarded(
 
     let detected: Vec<bool> = if clutter_ref {
         // The predicted bare-terrain power's local mean on the region lattice (NaN where no brick
-        // was imaged), then the CFAR test voxel by voxel.
-        // The per-voxel false-alarm probability: the stated false detections per image over
-        // the resolution cells this pass tests, at most `false_alarm_probability`.
-        let pfa = image_false_alarm_probability(
-            im.false_alarms_per_image,
-            offset,
-            v,
-            geo.cell_m3,
-            im.false_alarm_probability,
-        );
+        // was imaged or the model was not formed), then the CFAR test voxel by voxel.
         stats.false_alarm_probability = pfa;
-        let (radius, alpha) = cfar_window(&geo, v, pfa);
-        let beta = coherence_factor(pfa);
         let gidx = |b: &Brick, i: usize| {
             let d = b.bp.grid().dims;
             let (x, y, z) = (i % d[0], (i / d[0]) % d[1], i / (d[0] * d[1]));
@@ -1081,7 +1117,11 @@ fn image_guarded(
         // imaged.
         let model_lattice = |f: fn(f32) -> f32| {
             let mut pm = vec![f32::NAN; stats.region_voxels];
-            for b in &bricks {
+            for b in bricks
+                .iter()
+                .zip(&model_formed)
+                .filter_map(|(b, &k)| k.then_some(b))
+            {
                 for i in 0..b.bp.voxels() {
                     pm[gidx(b, i)] = f(img_m[b.offset + i].norm_sqr());
                 }
@@ -1736,6 +1776,92 @@ fn push_bricks_factorised(
 
 /// `out[i] = |p[i]|² − |m[i]|²` (as a real-valued complex profile, for the incoherent pass): the
 /// power of the data's profile `p` beyond the terrain model's `m` ([`super::detection`]).
+/// The excess power `|s|² − |m|²` of every sample of the frames, the data's `frames`
+/// element-major and the terrain model's `m` frame-major, `[frames, elements, bins]` in `dims`:
+/// packed two to a slot (real, imaginary) into the front of `m`'s own buffer, frame-major, and
+/// the rest of that buffer released, so that the incoherent pass holds half of it.
+fn pack_excess(frames: &[Complex32], mut m: Vec<Complex32>, dims: [usize; 3]) -> Vec<Complex32> {
+    let [nt, ne, nb] = dims;
+    for i in 0..m.len() {
+        let (f, k) = (i / (ne * nb), i % (ne * nb));
+        let (e, bin) = (k / nb, k % nb);
+        let x = frames[(e * nt + f) * nb + bin].norm_sqr() - m[i].norm_sqr();
+        // Slot i/2 ≤ i was read before (in-place, forward).
+        let slot = &mut m[i / 2];
+        if i % 2 == 0 {
+            slot.re = x;
+        } else {
+            slot.im = x;
+        }
+    }
+    m.truncate(m.len().div_ceil(2));
+    m.shrink_to_fit();
+    m
+}
+
+/// The bricks on which a deferred terrain model's image is formed: those that the CFAR window
+/// (`radius` voxels each side on the region lattice, as [`local_mean_of`] reads it) of some
+/// voxel passing the receive-coherence test `|I|² ≥ β·R` reaches. Only such voxels can be
+/// detected, and their window means read the model nowhere else, so they are the same as over
+/// every brick. `img` and `img_r` are the data image and `R` of the bricks, in brick order;
+/// `n_bricks` the brick lattice of the region.
+fn model_bricks(
+    bricks: &[Brick],
+    img: &[Complex32],
+    img_r: &[f32],
+    beta: f32,
+    radius: [usize; 3],
+    n_bricks: [usize; 3],
+) -> Vec<bool> {
+    let mut at = vec![usize::MAX; n_bricks.iter().product()];
+    for (k, b) in bricks.iter().enumerate() {
+        let [x, y, z] = b.start.map(|s| s / BRICK);
+        at[x + n_bricks[0] * (y + n_bricks[1] * z)] = k;
+    }
+    // Per brick, the lattice box (inclusive) of its passing voxels.
+    let boxes: Vec<Option<([usize; 3], [usize; 3])>> = bricks
+        .par_iter()
+        .map(|b| {
+            let d = b.bp.grid().dims;
+            let mut hull: Option<([usize; 3], [usize; 3])> = None;
+            for i in 0..b.bp.voxels() {
+                let j = b.offset + i;
+                if img[j].norm_sqr() >= beta * img_r[j] {
+                    let g = [
+                        b.start[0] + i % d[0],
+                        b.start[1] + (i / d[0]) % d[1],
+                        b.start[2] + i / (d[0] * d[1]),
+                    ];
+                    hull = Some(match hull {
+                        None => (g, g),
+                        Some((lo, hi)) => (
+                            [0, 1, 2].map(|a| lo[a].min(g[a])),
+                            [0, 1, 2].map(|a| hi[a].max(g[a])),
+                        ),
+                    });
+                }
+            }
+            hull
+        })
+        .collect();
+    let mut chosen = vec![false; bricks.len()];
+    for (lo, hi) in boxes.into_iter().flatten() {
+        let first = [0, 1, 2].map(|a| lo[a].saturating_sub(radius[a]) / BRICK);
+        let last = [0, 1, 2].map(|a| ((hi[a] + radius[a]) / BRICK).min(n_bricks[a] - 1));
+        for z in first[2]..=last[2] {
+            for y in first[1]..=last[1] {
+                for x in first[0]..=last[0] {
+                    let k = at[x + n_bricks[0] * (y + n_bricks[1] * z)];
+                    if k != usize::MAX {
+                        chosen[k] = true;
+                    }
+                }
+            }
+        }
+    }
+    chosen
+}
+
 fn excess_power_of(p: &[Complex32], m: &[Complex32], out: &mut [Complex32]) {
     out.par_iter_mut()
         .zip(p.par_iter().zip(m.par_iter()))
@@ -2207,6 +2333,60 @@ mod tests {
         assert!(q.z + alias_window_m(r, xv, xh, xz).z < 0.5);
         // Each box grows with its alias's distance from the panel.
         assert!(half.z > 1.8 * alias_window_m(r, xv, xh, xz).z);
+    }
+
+    #[test]
+    fn the_model_is_formed_on_every_brick_a_coherent_voxels_window_reaches_and_no_other() {
+        let v = 0.25f32;
+        let brick = |start: [usize; 3], n: usize| {
+            let grid = VoxelGrid {
+                origin: Vec3::new(start[0] as f32, start[1] as f32, start[2] as f32) * v,
+                spacing: Vec3::splat(v),
+                dims: [BRICK; 3],
+            };
+            let cfg = BpConfig {
+                grid,
+                wavelength_m: 0.03,
+                r0_m: 0.0,
+                dr_m: 0.375,
+                interp: Interp::Linear,
+                phase: PhaseEval::Poly,
+            };
+            Brick {
+                bp: Backprojector::new(cfg).expect("grid"),
+                bp_inc: Backprojector::new(cfg).expect("grid"),
+                rx_local: Vec::new(),
+                tx_local: Vec::new(),
+                offset: n * BRICK * BRICK * BRICK,
+                start,
+            }
+        };
+        // Four bricks along x, one beside the first along y; brick lattice 4 × 2 × 1.
+        let starts = [[0, 0, 0], [8, 0, 0], [16, 0, 0], [24, 0, 0], [0, 8, 0]];
+        let bricks: Vec<Brick> = starts
+            .iter()
+            .enumerate()
+            .map(|(n, &s)| brick(s, n))
+            .collect();
+        let voxels = starts.len() * BRICK * BRICK * BRICK;
+        let mut img = vec![Complex32::new(0.1, 0.0); voxels];
+        let img_r = vec![1.0f32; voxels];
+        let (beta, n_bricks) = (2.0f32, [4, 2, 1]);
+        // Nothing coherent: no model anywhere.
+        let none = model_bricks(&bricks, &img, &img_r, beta, [2, 2, 0], n_bricks);
+        assert_eq!(none, vec![false; 5]);
+        // One coherent voxel at x = 7, y = 0 of the first brick: its window (x 5..9, y 0..2)
+        // reaches the second brick, not the third nor the one beside along y.
+        img[7] = Complex32::new(1.5, 0.0);
+        let one = model_bricks(&bricks, &img, &img_r, beta, [2, 2, 0], n_bricks);
+        assert_eq!(one, vec![true, true, false, false, false]);
+        // A wider window along y reaches the brick beside (y 8..): x 7 lies in its 0..8.
+        let wide = model_bricks(&bricks, &img, &img_r, beta, [2, 8, 0], n_bricks);
+        assert_eq!(wide, vec![true, true, false, false, true]);
+        // Just below the factor: not coherent.
+        img[7] = Complex32::new(1.41, 0.0);
+        let below = model_bricks(&bricks, &img, &img_r, beta, [2, 8, 0], n_bricks);
+        assert_eq!(below, vec![false; 5]);
     }
 
     #[test]
