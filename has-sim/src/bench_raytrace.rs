@@ -18,6 +18,10 @@ pub enum BenchCmd {
     },
     /// Ray-tracing throughput: BVH build, closest hit and visibility, 1 thread and all threads.
     Raytrace(RaytraceArgs),
+    /// Channel tracing on a run's planar twin (RUN/twin.obj) against its Poisson mesh
+    /// (RUN/mesh.obj), as `channel` traces a twin: scene, facets, candidates and UEs timed, the
+    /// median of --repeats turns each, and the speed-up.
+    Twin(TwinArgs),
     /// Screened Poisson: adaptive fine levels against full grids on the same noisy building.
     /// Echo synthesis: scatterer × element pairs per second of the fast (blocked) path against the
     /// plain one-path-at-a-time reference, 1 thread and all threads.
@@ -62,6 +66,26 @@ pub struct RaytraceArgs {
     pub paths_scene: std::path::PathBuf,
 }
 
+/// Options of `bench twin`.
+#[derive(Args)]
+pub struct TwinArgs {
+    /// A `reconstruct` output directory holding twin.obj and mesh.obj.
+    pub run: std::path::PathBuf,
+    /// The run's scenario (TOML with a `[channel]` table). Default: the bundled
+    /// fixtures/factory.toml.
+    #[arg(long)]
+    pub scenario: Option<std::path::PathBuf>,
+    /// The `[channel.quick]` preset (fewer UEs, lower order, fewer rays).
+    #[arg(long)]
+    pub quick: bool,
+    /// Turns of each mesh; every stage reports its median.
+    #[arg(long, default_value_t = 5)]
+    pub repeats: usize,
+    /// Print JSON instead of a table.
+    #[arg(long)]
+    pub json: bool,
+}
+
 /// Prints rows as an aligned table.
 pub fn print_table(rows: &[BenchRow]) {
     println!(
@@ -91,6 +115,7 @@ pub fn print_table(rows: &[BenchRow]) {
 pub fn run(cmd: BenchCmd) -> anyhow::Result<()> {
     match cmd {
         BenchCmd::Raytrace(a) => raytrace(&a),
+        BenchCmd::Twin(a) => twin(&a),
         BenchCmd::Dsp { quick } => crate::bench_dsp::run(quick),
         BenchCmd::Echo { quick } => crate::bench_dsp::run_echo(quick),
         BenchCmd::Mesh { quick } => crate::bench_mesh::run(quick),
@@ -123,6 +148,33 @@ fn raytrace(a: &RaytraceArgs) -> anyhow::Result<()> {
             "per cpu s = count / process CPU time: the throughput per busy core, unaffected by \
              other processes competing for the cores (wall figures are)."
         );
+    }
+    Ok(())
+}
+
+fn twin(a: &TwinArgs) -> anyhow::Result<()> {
+    use anyhow::Context;
+    let (sc, name) = crate::reconstruct_cmd::load_scenario(a.scenario.as_deref())?;
+    let mut spec = sc
+        .channel
+        .clone()
+        .with_context(|| format!("{name}: no [channel] table"))?;
+    if a.quick {
+        spec.apply_quick();
+    }
+    spec.validate()?;
+    let load = |file: &str| {
+        let path = a.run.join(file);
+        has_host::io::load_objects(&path, Some(has_host::Material::Concrete))
+            .with_context(|| format!("{}", path.display()))
+    };
+    let (twin, poisson) = (load("twin.obj")?, load("mesh.obj")?);
+    let report = has_host::bench::twin_trace::run(&sc, &spec, &twin, &poisson, a.repeats)?;
+    if a.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        println!("has-sim bench twin — {name}, run {}\n", a.run.display());
+        print!("{}", report.table());
     }
     Ok(())
 }

@@ -13,6 +13,7 @@
 //! - [`dsp`]: FFT-1024, range compression and back-projection rates with their SER.
 //! - [`echo`]: echo-synthesis rates, the fast path against the plain one.
 //! - [`mesh`]: screened Poisson with adaptive fine levels against full grids.
+//! - [`twin_trace`]: channel tracing on a planar twin against the same site's Poisson mesh.
 
 use std::time::{Duration, Instant};
 
@@ -21,6 +22,7 @@ pub mod echo;
 pub mod mesh;
 pub mod paths;
 pub mod raytrace;
+pub mod twin_trace;
 
 /// One measured line of a throughput table.
 #[derive(Clone, Debug, serde::Serialize)]
@@ -81,6 +83,9 @@ pub enum BenchError {
     /// A rayon thread pool could not be built.
     #[error(transparent)]
     ThreadPool(#[from] rayon::ThreadPoolBuildError),
+    /// A benchmark's input (an option, a scenario value) is refused; the message names it.
+    #[error("{0}")]
+    Input(String),
 }
 
 /// Process CPU time (user + system), seconds, from `/proc/self/stat` (Linux; clock ticks assumed
