@@ -28,6 +28,12 @@
 //!   (a building reaches at least that high, and would have blocked the line): the footprint's
 //!   cut counts that ground against being inside as a roof point counts for it. A street or an
 //!   alley between two facades is then kept open even where no roof edge bounds it.
+//! - **Open air over the roofs.** The same sight lines, from every fused point a pair imaged
+//!   (wall, roof or ground) to that pair's base station, are free space all along: per ground
+//!   pixel, the lowest height at which one passes over it bounds any roof there
+//!   ([`free_heights`]). Only the base station's line counts: it is one fixed point, while the
+//!   terminal's track is a stretch of street whose centre need not see what its ends saw. The
+//!   first two voxels from the point are left out (the point's own surface, placed to a voxel).
 //! - Nothing here names a shape: any footprint whose facades were seen from outside encloses its
 //!   interior, courtyards included (a courtyard's walls face into the courtyard, so rays stop
 //!   there).
@@ -254,6 +260,109 @@ pub fn enclosed_ground(
 /// Ray directions are binned over 180° into this many bins (22.5° each).
 const DIRECTION_BINS: usize = 8;
 
+/// The open air over the site (module docs): per pixel of a raster of `pixel_m` (keys
+/// `⌊x/pixel⌋, ⌊y/pixel⌋`), the lowest height, metres, at which a sight line from an imaged point
+/// to its pair's base station passes over it. Pixels no line crosses are absent.
+#[derive(Clone, Debug, Default)]
+pub struct FreeHeights {
+    /// Raster pixel, metres.
+    pub pixel_m: f64,
+    /// Lowest sight-line height per pixel, metres.
+    pub lowest: std::collections::HashMap<(i64, i64), f64>,
+}
+
+impl FreeHeights {
+    /// The pixel holding ground position `p`.
+    pub fn key(&self, p: DVec2) -> (i64, i64) {
+        (
+            (p.x / self.pixel_m).floor() as i64,
+            (p.y / self.pixel_m).floor() as i64,
+        )
+    }
+
+    /// The centre of pixel `k`.
+    pub fn centre(&self, k: (i64, i64)) -> DVec2 {
+        DVec2::new(
+            (k.0 as f64 + 0.5) * self.pixel_m,
+            (k.1 as f64 + 0.5) * self.pixel_m,
+        )
+    }
+}
+
+/// [`FreeHeights`] of the fused `points` that each view's pair imaged (a point of its cloud
+/// within `distance_m`), walked from `skip_m` (horizontal run) off the point towards the base
+/// station in steps of `pixel_m`, up to height `below_m` (above it no roof is a candidate). A
+/// pixel's height is the second lowest over the base stations (each its own lowest): one
+/// receiver's lines can all come from one misplaced echo (a detection of that pair within a
+/// voxel of a fused point that is another echo's image), two receivers' seldom do.
+///
+/// # Errors
+/// A non-finite point of a view's cloud.
+pub fn free_heights(
+    points: &[Vec3],
+    views: &[PairView],
+    distance_m: f64,
+    pixel_m: f64,
+    skip_m: f64,
+    below_m: f64,
+) -> Result<FreeHeights, crate::knn::GeometryError> {
+    let mut out = FreeHeights {
+        pixel_m,
+        ..FreeHeights::default()
+    };
+    let d2 = (distance_m * distance_m) as f32;
+    // Per receiver (in order of first appearance), its lowest line per pixel.
+    let mut receivers: Vec<DVec3> = Vec::new();
+    let mut per: Vec<std::collections::HashMap<(i64, i64), f64>> = Vec::new();
+    for view in views.iter().filter(|v| !v.points.is_empty()) {
+        let r = match receivers.iter().position(|&x| x == view.receiver) {
+            Some(r) => r,
+            None => {
+                receivers.push(view.receiver);
+                per.push(Default::default());
+                receivers.len() - 1
+            }
+        };
+        let index = PointIndex::new("pair cloud", &view.points)?;
+        for q in points.iter().filter(|&&q| index.nearest(q).1 <= d2) {
+            let q = q.as_dvec3();
+            let d = view.receiver - q;
+            let run = d.truncate().length();
+            let mut t = skip_m;
+            while t < run {
+                let at = q + d * (t / run);
+                if at.z >= below_m && d.z >= 0.0 {
+                    break;
+                }
+                if at.z < below_m {
+                    let h = per[r]
+                        .entry(out.key(at.truncate()))
+                        .or_insert(f64::INFINITY);
+                    *h = h.min(at.z);
+                }
+                t += pixel_m;
+            }
+        }
+    }
+    let mut all: std::collections::HashMap<(i64, i64), [f64; 2]> = Default::default();
+    for map in &per {
+        for (&k, &h) in map {
+            let e = all.entry(k).or_insert([f64::INFINITY; 2]);
+            if h < e[0] {
+                *e = [h, e[0]];
+            } else if h < e[1] {
+                e[1] = h;
+            }
+        }
+    }
+    out.lowest = all
+        .into_iter()
+        .filter(|(_, e)| e[1].is_finite())
+        .map(|(k, e)| (k, e[1]))
+        .collect();
+    Ok(out)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -349,5 +458,33 @@ mod tests {
             Some(DVec2::NEG_Y),
         ];
         assert!(enclosed_ground(&box_walls, &fronts, 0.5, 1.0).is_empty());
+    }
+    #[test]
+    fn the_air_over_a_pixel_is_the_second_lowest_line_of_two_receivers() {
+        // Two ground points, each imaged by two pairs: one per base station, east and north.
+        let q = [Vec3::new(0.0, 0.0, 0.0), Vec3::new(0.0, 0.0, 0.0)];
+        let view = |receiver: DVec3| PairView {
+            points: vec![Vec3::new(0.0, 0.0, 0.1)],
+            receiver,
+            transmitter: DVec3::new(0.0, -50.0, 1.5),
+        };
+        let (east, north) = (DVec3::new(20.0, 0.0, 10.0), DVec3::new(0.0, 20.0, 20.0));
+        let one = free_heights(&q[..1], &[view(east)], 0.5, 0.5, 1.0, 100.0).unwrap();
+        assert!(one.lowest.is_empty(), "one receiver decides nothing");
+        // East's line rises 0.5 m per metre, north's 1 m per metre: no pixel is crossed by both
+        // but the point's own (skipped), so still nothing.
+        let two = free_heights(&q[..1], &[view(east), view(north)], 0.5, 0.5, 1.0, 100.0).unwrap();
+        assert!(two.lowest.is_empty());
+        // Two receivers on one side at different heights: over a pixel both cross, the higher.
+        let low = DVec3::new(20.0, 0.0, 10.0);
+        let high = DVec3::new(20.0, 0.0, 20.0);
+        let both = free_heights(&q[..1], &[view(low), view(high)], 0.5, 0.5, 1.0, 100.0).unwrap();
+        let k = both.key(DVec2::new(10.2, 0.1));
+        let h = both.lowest[&k];
+        // At x ≈ 10 the lines stand near 5 m and 10 m: the second lowest is the higher one.
+        assert!((h - 10.0).abs() < 0.6, "{h}");
+        // Nothing is recorded above the ceiling.
+        let capped = free_heights(&q[..1], &[view(low), view(high)], 0.5, 0.5, 1.0, 4.0).unwrap();
+        assert!(capped.lowest.values().all(|&h| h < 4.0));
     }
 }

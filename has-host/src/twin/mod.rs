@@ -15,8 +15,10 @@
 //!   │                                     facades seen from outside; ground seen through
 //!   ├─ footprint::label      → Footprint  cells inside by roof, enclosure and open-ground
 //!   │                                     evidence, buildings = components
+//!   ├─ enclosure::free_heights → the air the base stations saw over each ground pixel
 //!   ├─ roof::assign          → CellRoof per inside cell: roof planes by α-expansion over
-//!   │                                     data and seam terms (supported, or inferred)
+//!   │                                     data, free-space and seam terms (supported, or
+//!   │                                     inferred)
 //!   ├─ solid::extrude        → Solid      closed planar polygon surface with provenance
 //!   ├─ cityjson::document    → CityJSON 2.0 (one LoD2 Building per footprint)
 //!   └─ sionna::scene         → Sionna RT / Mitsuba 3 XML, one PLY mesh per building
@@ -315,7 +317,27 @@ pub fn build(input: &TwinInput<'_>) -> Result<Twin, TwinError> {
             roofs: count(PlaneKind::Roof),
         });
     }
-    let roofs = roof::assign(&fp, points, &set, input.ground_z, &walls, &terms);
+    // The air the base stations saw over the site, up to where no roof is a candidate.
+    let z_top = points.iter().map(|p| p.z as f64).fold(f64::MIN, f64::max);
+    // Only points the footprint leaves outside every building: a point under a roof of the
+    // model is one its sensors could not have seen, and its line would cut that roof.
+    let outside: Vec<Vec3> = {
+        let xy: Vec<DVec2> = points.iter().map(|p| p.as_dvec3().truncate()).collect();
+        roof::cells_of(&fp, &xy, &set)
+            .into_iter()
+            .zip(points)
+            .filter_map(|(c, &p)| c.is_none().then_some(p))
+            .collect()
+    };
+    let free = enclosure::free_heights(
+        &outside,
+        input.views,
+        tol.distance_m,
+        input.voxel_m,
+        roof::RESIDUAL_CAP.sqrt() * tol.voxel_m,
+        z_top + roof::HEIGHT_MARGIN_VOXELS * tol.voxel_m,
+    )?;
+    let roofs = roof::assign(&fp, points, &set, input.ground_z, &walls, &terms, &free);
     let solid = solid::extrude(&fp, &roofs, &set, input.ground_z);
     Ok(Twin {
         planes: set,

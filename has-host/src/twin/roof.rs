@@ -29,6 +29,12 @@
 //!     roof at that height, even where no pair saw the roof itself (a flat roof is seen, if at
 //!     all, only at its rim).
 //!
+//!   - a *free-space term*: where a base station's sight line to a point it imaged passes over
+//!     the cell lower than the roof there, less the residuals' truncation (two voxels), the roof
+//!     would have blocked it ([`super::enclosure::free_heights`]): each such pixel costs what a
+//!     roof point that far off does. The pairs saw the air above a roof, not only the roof, so
+//!     a cell no point was seen over is not roofed higher than the lines that crossed it.
+//!
 //!   The seam term is a metric, so α-expansion (Boykov, Veksler & Zabih 2001) minimises the
 //!   energy by one minimum cut per label and pass. A cell over which no point was seen takes the
 //!   plane its neighbours make cheapest, marked inferred from a neighbour on that plane.
@@ -204,6 +210,7 @@ pub fn assign(
     ground_z: f64,
     walls: &[SplitLine],
     terms: &LabelTerms,
+    free: &super::enclosure::FreeHeights,
 ) -> Vec<Option<CellRoof>> {
     let n = fp.partition.cells.len();
     let tol = set.tol;
@@ -271,6 +278,23 @@ pub fn assign(
                 .filter(|q| q.z > r.z_at(q.truncate()) + RESIDUAL_CAP.sqrt() * sigma)
                 .count();
             *v += area * RESIDUAL_CAP * above as f64;
+        }
+    }
+    // Sight lines over a cell lower than the roof: each pixel costs a far-off roof point.
+    for (c, pix) in locate_pixels(fp, free, set).iter().enumerate() {
+        if pix.is_empty() {
+            continue;
+        }
+        for (j, &k) in labels.iter().enumerate() {
+            let Some(v) = data[c][j].as_mut() else {
+                continue;
+            };
+            let r = roof_of(k);
+            let blocked = pix
+                .iter()
+                .filter(|&&(x, h)| r.z_at(x) > h + RESIDUAL_CAP.sqrt() * sigma)
+                .count();
+            *v += area * RESIDUAL_CAP * blocked as f64;
         }
     }
     // Shared edges between inside cells of one building, with their wall support.
@@ -480,6 +504,59 @@ fn energy(
 }
 
 /// The roof points (points of roof planes) over each inside cell.
+/// Per inside cell, the free-height pixels whose centres it holds: (centre, lowest height).
+fn locate_pixels(
+    fp: &Footprint,
+    free: &super::enclosure::FreeHeights,
+    set: &PlaneSet,
+) -> Vec<Vec<(DVec2, f64)>> {
+    let mut keys: Vec<(&(i64, i64), &f64)> = free.lowest.iter().collect();
+    keys.sort_unstable_by_key(|(k, _)| **k);
+    let centres: Vec<DVec2> = keys.iter().map(|(k, _)| free.centre(**k)).collect();
+    let cells = cells_of(fp, &centres, set);
+    let mut out = vec![Vec::new(); fp.partition.cells.len()];
+    for ((x, (_, &h)), c) in centres.iter().zip(&keys).zip(cells) {
+        if let Some(c) = c {
+            out[c].push((*x, h));
+        }
+    }
+    out
+}
+
+/// The inside cell holding each ground position, located through a bucket grid of cell boxes.
+pub(crate) fn cells_of(fp: &Footprint, xy: &[DVec2], set: &PlaneSet) -> Vec<Option<usize>> {
+    let n = fp.partition.cells.len();
+    let boxes: Vec<(DVec2, DVec2)> = (0..n)
+        .map(|c| {
+            let r = fp.partition.ring(c);
+            let lo = r.iter().fold(DVec2::splat(f64::MAX), |m, &p| m.min(p));
+            let hi = r.iter().fold(DVec2::splat(f64::MIN), |m, &p| m.max(p));
+            (lo, hi)
+        })
+        .collect();
+    let bucket = 4.0 * set.tol.voxel_m;
+    let key = |p: DVec2| ((p.x / bucket).floor() as i64, (p.y / bucket).floor() as i64);
+    let mut grid: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
+    for c in (0..n).filter(|&c| fp.inside[c]) {
+        let (a, b) = (key(boxes[c].0), key(boxes[c].1));
+        for kx in a.0..=b.0 {
+            for ky in a.1..=b.1 {
+                grid.entry((kx, ky)).or_default().push(c as u32);
+            }
+        }
+    }
+    xy.iter()
+        .map(|&q| {
+            let cands = grid.get(&key(q))?;
+            cands.iter().map(|&c| c as usize).find(|&c| {
+                q.cmpge(boxes[c].0 - 1e-9).all()
+                    && q.cmple(boxes[c].1 + 1e-9).all()
+                    && fp.partition.contains(c, q)
+            })
+        })
+        .collect()
+}
+
 fn locate(fp: &Footprint, points: &[Vec3], set: &PlaneSet) -> Vec<Vec<u32>> {
     let n = fp.partition.cells.len();
     let mut out = vec![Vec::new(); n];
