@@ -503,7 +503,6 @@ fn energy(
     e
 }
 
-/// The roof points (points of roof planes) over each inside cell.
 /// Per inside cell, the free-height pixels whose centres it holds: (centre, lowest height).
 fn locate_pixels(
     fp: &Footprint,
@@ -557,44 +556,21 @@ pub(crate) fn cells_of(fp: &Footprint, xy: &[DVec2], set: &PlaneSet) -> Vec<Opti
         .collect()
 }
 
+/// The roof points (points of roof planes) over each inside cell.
 fn locate(fp: &Footprint, points: &[Vec3], set: &PlaneSet) -> Vec<Vec<u32>> {
-    let n = fp.partition.cells.len();
-    let mut out = vec![Vec::new(); n];
-    let boxes: Vec<(DVec2, DVec2)> = (0..n)
-        .map(|c| {
-            let r = fp.partition.ring(c);
-            let lo = r.iter().fold(DVec2::splat(f64::MAX), |m, &p| m.min(p));
-            let hi = r.iter().fold(DVec2::splat(f64::MIN), |m, &p| m.max(p));
-            (lo, hi)
+    let roof: Vec<u32> = (0..points.len() as u32)
+        .filter(|&i| {
+            set.label[i as usize].is_some_and(|k| set.planes[k as usize].kind == PlaneKind::Roof)
         })
         .collect();
-    let bucket = 4.0 * set.tol.voxel_m;
-    let key = |p: DVec2| ((p.x / bucket).floor() as i64, (p.y / bucket).floor() as i64);
-    let mut grid: HashMap<(i64, i64), Vec<u32>> = HashMap::new();
-    for c in (0..n).filter(|&c| fp.inside[c]) {
-        let (a, b) = (key(boxes[c].0), key(boxes[c].1));
-        for kx in a.0..=b.0 {
-            for ky in a.1..=b.1 {
-                grid.entry((kx, ky)).or_default().push(c as u32);
-            }
-        }
-    }
-    for (i, p) in points.iter().enumerate() {
-        let Some(k) = set.label[i] else { continue };
-        if set.planes[k as usize].kind != PlaneKind::Roof {
-            continue;
-        }
-        let q = p.as_dvec3().truncate();
-        let Some(cands) = grid.get(&key(q)) else {
-            continue;
-        };
-        if let Some(&c) = cands.iter().find(|&&c| {
-            let c = c as usize;
-            q.cmpge(boxes[c].0 - 1e-9).all()
-                && q.cmple(boxes[c].1 + 1e-9).all()
-                && fp.partition.contains(c, q)
-        }) {
-            out[c as usize].push(i as u32);
+    let xy: Vec<DVec2> = roof
+        .iter()
+        .map(|&i| points[i as usize].as_dvec3().truncate())
+        .collect();
+    let mut out = vec![Vec::new(); fp.partition.cells.len()];
+    for (&i, c) in roof.iter().zip(cells_of(fp, &xy, set)) {
+        if let Some(c) = c {
+            out[c].push(i);
         }
     }
     out
