@@ -707,6 +707,7 @@ fn run_shard(args: &ReconstructArgs, shard: Shard) -> Result<()> {
         backprojections: imaged.images.iter().map(|i| i.stats.backprojections).sum(),
         timings_s: imaged.timings_s.clone(),
         peak_rss_mib: crate::resources::peak_rss_mib(),
+        pair_stats: imaged.images.iter().map(|i| i.stats.clone()).collect(),
     };
     let text = serde_json::to_string_pretty(&record)?;
     has_host::io::atomic_write(&args.out.join(SHARD_RECORD), |w| {

@@ -161,7 +161,8 @@ pub struct PairImage {
 }
 
 /// Work done for one pair.
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Clone, Debug, Default, serde::Serialize, serde::Deserialize)]
+#[serde(default)]
 pub struct PairStats {
     /// Frames (transmit positions) pushed in the fine pass.
     pub frames: usize,
@@ -178,6 +179,10 @@ pub struct PairStats {
     /// Fine voxels of the incoherent image `P` of the clutter test: the bricks holding a voxel
     /// that could pass it (all of them on the factorised path).
     pub incoherent_voxels: usize,
+    /// Fine voxels of the terrain model's image: the bricks a coherent voxel's CFAR window
+    /// reaches on the exact `f32` path with the receive-coherence test, else every brick (0
+    /// without the clutter test).
+    pub model_voxels: usize,
     /// Fine voxels of the whole region.
     pub region_voxels: usize,
     /// Voxel × profile updates of both passes.
@@ -1069,6 +1074,7 @@ fn image_guarded(
             .filter_map(|(b, &k)| k.then_some(b))
             .collect();
         let model_voxels: usize = picked.iter().map(|b| b.bp.voxels()).sum();
+        stats.model_voxels = model_voxels;
         stats.backprojections += (model_voxels * ne * nt) as f64;
         for (f, &tx) in tx_fine.iter().enumerate() {
             let t = Instant::now();
@@ -1085,6 +1091,7 @@ fn image_guarded(
         chosen
     } else {
         if clutter_ref {
+            stats.model_voxels = offset;
             stats.backprojections += (offset * ne * nt) as f64;
         }
         vec![true; bricks.len()]

@@ -184,6 +184,10 @@ pub struct ShardRecord {
     pub timings_s: ShardTimings,
     /// Peak resident memory of the process, MiB.
     pub peak_rss_mib: Option<f64>,
+    /// The work of each of this shard's pairs, in the order of `pairs` (empty in a record
+    /// written before it was kept).
+    #[serde(default)]
+    pub pair_stats: Vec<crate::imaging::PairStats>,
 }
 
 /// For each planned pair, the index of the directory that holds it: `held[d]` are the pair
@@ -330,5 +334,16 @@ mod tests {
         );
         let unknown = assign_pairs(&p, &dirs, &held(&[&["a", "b", "z"], &["c", "d"]]));
         assert!(matches!(unknown, Err(ShardError::Unknown { .. })));
+    }
+    #[test]
+    fn a_record_written_before_the_pairs_stats_were_kept_still_reads() {
+        let old = r#"{"scenario": "s.toml", "preset": "default", "scenario_digest": "0e80",
+            "seed": 1, "shard": {"index": 1, "count": 24}, "split": "round robin",
+            "planned_pairs": 24, "pairs": ["BS1-V1"], "imaging": "f32",
+            "backprojections": 1.0, "timings_s": {"setup": 0.1, "imaging": 2.0,
+            "synthesis": 0.5, "backprojection": 1.0}, "peak_rss_mib": 700.0}"#;
+        let r: ShardRecord = serde_json::from_str(old).expect("old record");
+        assert!(r.pair_stats.is_empty());
+        assert_eq!(r.pairs, ["BS1-V1"]);
     }
 }
