@@ -153,20 +153,14 @@ fn raytrace(a: &RaytraceArgs) -> anyhow::Result<()> {
 }
 
 fn twin(a: &TwinArgs) -> anyhow::Result<()> {
-    use anyhow::Context;
-    let (sc, name) = crate::reconstruct_cmd::load_scenario(a.scenario.as_deref())?;
-    let mut spec = sc
-        .channel
-        .clone()
-        .with_context(|| format!("{name}: no [channel] table"))?;
-    if a.quick {
-        spec.apply_quick();
+    use has_host::bench::twin_trace::MAX_REPEATS;
+    if !(1..=MAX_REPEATS).contains(&a.repeats) {
+        anyhow::bail!("--repeats {}: from 1 to {MAX_REPEATS}", a.repeats);
     }
-    spec.validate()?;
+    let (sc, spec, name) = crate::channel_cmd::load_channel(a.scenario.as_deref(), a.quick)?;
+    // The loader's error names the file.
     let load = |file: &str| {
-        let path = a.run.join(file);
-        has_host::io::load_objects(&path, Some(has_host::Material::Concrete))
-            .with_context(|| format!("{}", path.display()))
+        has_host::io::load_objects(&a.run.join(file), Some(has_host::Material::Concrete))
     };
     let (twin, poisson) = (load("twin.obj")?, load("mesh.obj")?);
     let report = has_host::bench::twin_trace::run(&sc, &spec, &twin, &poisson, a.repeats)?;

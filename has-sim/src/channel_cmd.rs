@@ -51,12 +51,21 @@ pub struct ChannelArgs {
 }
 
 fn load(args: &ChannelArgs) -> Result<(Scenario, ChannelSpec, String)> {
-    let (sc, name) = load_scenario(args.scenario.as_deref())?;
+    load_channel(args.scenario.as_deref(), args.quick)
+}
+
+/// The scenario (default: the bundled one), its `[channel]` table with the quick preset applied
+/// when asked and validated, and the scenario's name.
+pub fn load_channel(
+    scenario: Option<&Path>,
+    quick: bool,
+) -> Result<(Scenario, ChannelSpec, String)> {
+    let (sc, name) = load_scenario(scenario)?;
     let mut spec = sc
         .channel
         .clone()
         .with_context(|| format!("{name}: no [channel] table"))?;
-    if args.quick {
+    if quick {
         spec.apply_quick();
     }
     spec.validate()?;

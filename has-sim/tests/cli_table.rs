@@ -1267,6 +1267,42 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
         )
         .absent(&[&out("no_props.obj")]),
         // More usage errors: clap's exit code 2 with its usage text or a hint.
+        row(
+            "bench twin, no repeats",
+            &["bench", "twin", "fixtures", "--repeats", "0"],
+            1,
+            "--repeats 0",
+        ),
+        row(
+            "bench twin, a huge repeat count",
+            &["bench", "twin", "fixtures", "--repeats", "1000000000"],
+            1,
+            "--repeats 1000000000",
+        ),
+        row(
+            "bench twin, repeats not a number",
+            &["bench", "twin", "fixtures", "--repeats", "1e30"],
+            2,
+            "--repeats",
+        ),
+        row(
+            "bench twin, a run without a twin",
+            &["bench", "twin", "fixtures"],
+            1,
+            "twin.obj",
+        ),
+        row(
+            "bench twin, a device as the run",
+            &["bench", "twin", "/dev/null"],
+            1,
+            "twin.obj",
+        ),
+        row(
+            "bench twin, a run up the tree",
+            &["bench", "twin", "../no/such/run"],
+            1,
+            "twin.obj",
+        ),
         row("an unknown subcommand", &["frobnicate"], 2, "frobnicate"),
         row("scene without its subcommand", &["scene"], 2, "Usage"),
         row(

@@ -21,6 +21,9 @@ use crate::paths::{Tracer, TracerConfig};
 use crate::scenario::{ChannelSpec, Scenario};
 use crate::{Material, Object, Scene};
 
+/// Most turns of each mesh (each turn traces every UE on both).
+pub const MAX_REPEATS: usize = 100;
+
 /// One mesh's figures (medians over the repeats).
 #[derive(Clone, Debug, serde::Serialize)]
 pub struct TwinTraceRow {
@@ -129,7 +132,7 @@ fn median(mut v: Vec<f64>) -> f64 {
 /// preset applied) on `twin` and on `poisson`, each `repeats` times in turn (module docs).
 ///
 /// # Errors
-/// [`BenchError::Input`] for `repeats` 0 or a `known_objects` name missing from the scene; the
+/// [`BenchError::Input`] for `repeats` outside 1 … [`MAX_REPEATS`] or a `known_objects` name missing from the scene; the
 /// scene, tracer and scenario errors of the channel experiment.
 pub fn run(
     sc: &Scenario,
@@ -138,8 +141,10 @@ pub fn run(
     poisson: &[Object],
     repeats: usize,
 ) -> Result<TwinTraceReport, BenchError> {
-    if repeats == 0 {
-        return Err(BenchError::Input("--repeats 0: at least one".into()));
+    if !(1..=MAX_REPEATS).contains(&repeats) {
+        return Err(BenchError::Input(format!(
+            "--repeats {repeats}: from 1 to {MAX_REPEATS}"
+        )));
     }
     let input = |e: crate::scenario::ScenarioError| BenchError::Input(e.to_string());
     let fc = sc.radar.fc_hz_checked().map_err(input)?;

@@ -1063,16 +1063,8 @@ fn image_guarded(
     let beta = coherence_factor(pfa);
     let model_formed: Vec<bool> = if defer_model {
         let chosen = model_bricks(&bricks, &img, &img_r, beta, radius, n_bricks);
-        let mut accs_m: Vec<AccF32<'_>> = brick_accs_f32(&bricks, &mut img_m, |b| &b.bp)?
-            .into_iter()
-            .zip(&chosen)
-            .filter_map(|(a, &k)| k.then_some(a))
-            .collect();
-        let picked: Vec<&Brick> = bricks
-            .iter()
-            .zip(&chosen)
-            .filter_map(|(b, &k)| k.then_some(b))
-            .collect();
+        let mut accs_m = kept(brick_accs_f32(&bricks, &mut img_m, |b| &b.bp)?, &chosen);
+        let picked = kept(&bricks, &chosen);
         let model_voxels: usize = picked.iter().map(|b| b.bp.voxels()).sum();
         stats.model_voxels = model_voxels;
         stats.backprojections += (model_voxels * ne * nt) as f64;
@@ -1158,16 +1150,11 @@ fn image_guarded(
                     })
                 })
                 .collect();
-            let chosen: Vec<&Brick> = bricks
-                .iter()
-                .zip(&could_pass)
-                .filter_map(|(b, &k)| k.then_some(b))
-                .collect();
-            let mut accs_i: Vec<AccF32<'_>> = brick_accs_f32(&bricks, &mut img_i, |b| &b.bp_inc)?
-                .into_iter()
-                .zip(&could_pass)
-                .filter_map(|(a, &k)| k.then_some(a))
-                .collect();
+            let chosen = kept(&bricks, &could_pass);
+            let mut accs_i = kept(
+                brick_accs_f32(&bricks, &mut img_i, |b| &b.bp_inc)?,
+                &could_pass,
+            );
             stats.incoherent_voxels = chosen.iter().map(|b| b.bp.voxels()).sum();
             stats.backprojections += (stats.incoherent_voxels * ne * nt) as f64;
             for (f, &tx) in tx_fine.iter().enumerate() {
@@ -1656,6 +1643,15 @@ fn coarse_pass(
         frame: cframe,
         detected,
     })
+}
+
+/// The items whose entry of `keep` is true, in order.
+fn kept<T>(items: impl IntoIterator<Item = T>, keep: &[bool]) -> Vec<T> {
+    items
+        .into_iter()
+        .zip(keep)
+        .filter_map(|(x, &k)| k.then_some(x))
+        .collect()
 }
 
 /// `f32` accumulators of every brick, on the back-projector `bp_of(brick)`, over consecutive

@@ -263,40 +263,29 @@ pub fn assign(
     // to a height is a wall up to that height. A point more than the residuals' truncation
     // (two voxels) above the roof is unexplained and costs what a roof point that far off does.
     let mut data = data;
-    let outline = outline_wall_points(fp, points, set);
-    for (c, pts) in outline.iter().enumerate() {
-        if pts.is_empty() {
-            continue;
+    let reach = RESIDUAL_CAP.sqrt() * sigma;
+    // Per cell, (ground position, height) evidence; each one `wrong` judges a roof to
+    // contradict costs what a far-off roof point does.
+    let mut charge = |per_cell: &[Vec<(DVec2, f64)>], wrong: &dyn Fn(f64, f64) -> bool| {
+        for (c, items) in per_cell.iter().enumerate().filter(|(_, v)| !v.is_empty()) {
+            for (j, &k) in labels.iter().enumerate() {
+                // Outside cells have no data terms.
+                let Some(v) = data[c].get_mut(j).and_then(Option::as_mut) else {
+                    continue;
+                };
+                let r = roof_of(k);
+                let n = items.iter().filter(|&&(x, h)| wrong(r.z_at(x), h)).count();
+                *v += area * RESIDUAL_CAP * n as f64;
+            }
         }
-        for (j, &k) in labels.iter().enumerate() {
-            let Some(v) = data[c][j].as_mut() else {
-                continue;
-            };
-            let r = roof_of(k);
-            let above = pts
-                .iter()
-                .filter(|q| q.z > r.z_at(q.truncate()) + RESIDUAL_CAP.sqrt() * sigma)
-                .count();
-            *v += area * RESIDUAL_CAP * above as f64;
-        }
-    }
+    };
+    let outline: Vec<Vec<(DVec2, f64)>> = outline_wall_points(fp, points, set)
+        .into_iter()
+        .map(|pts| pts.into_iter().map(|q| (q.truncate(), q.z)).collect())
+        .collect();
+    charge(&outline, &|roof, h| h > roof + reach);
     // Sight lines over a cell lower than the roof: each pixel costs a far-off roof point.
-    for (c, pix) in locate_pixels(fp, free, set).iter().enumerate() {
-        if pix.is_empty() {
-            continue;
-        }
-        for (j, &k) in labels.iter().enumerate() {
-            let Some(v) = data[c][j].as_mut() else {
-                continue;
-            };
-            let r = roof_of(k);
-            let blocked = pix
-                .iter()
-                .filter(|&&(x, h)| r.z_at(x) > h + RESIDUAL_CAP.sqrt() * sigma)
-                .count();
-            *v += area * RESIDUAL_CAP * blocked as f64;
-        }
-    }
+    charge(&locate_pixels(fp, free, set), &|roof, h| roof > h + reach);
     // Shared edges between inside cells of one building, with their wall support.
     let nb = fp.partition.neighbours();
     let mut shared: HashMap<(usize, usize), Vec<SeamEdge>> = HashMap::new();
