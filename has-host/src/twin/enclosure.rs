@@ -28,12 +28,15 @@
 //!   (a building reaches at least that high, and would have blocked the line): the footprint's
 //!   cut counts that ground against being inside as a roof point counts for it. A street or an
 //!   alley between two facades is then kept open even where no roof edge bounds it.
-//! - **Open air over the roofs.** The same sight lines, from every fused point a pair imaged
-//!   (wall, roof or ground) to that pair's base station, are free space all along: per ground
-//!   pixel, the lowest height at which one passes over it bounds any roof there
-//!   ([`free_heights`]). Only the base station's line counts: it is one fixed point, while the
-//!   terminal's track is a stretch of street whose centre need not see what its ends saw. The
-//!   first two voxels from the point are left out (the point's own surface, placed to a voxel).
+//! - **Open air over the roofs.** The same sight lines, from the fused points a pair imaged to
+//!   that pair's base station, are free space all along: per ground pixel, the height at which
+//!   they pass over it bounds any roof there ([`free_heights`]). Only the base station's line
+//!   counts: it is one fixed point, while the terminal's track is a stretch of street whose
+//!   centre need not see what its ends saw. The first two voxels from the point are left out
+//!   (the point's own surface, placed to a voxel). The caller passes only points that the
+//!   footprint leaves outside every building (one under a roof could not have been seen, and
+//!   its line would cut that roof), and a pixel's height is the second lowest over the base
+//!   stations: one receiver's misplaced echoes do not carve a roof.
 //! - Nothing here names a shape: any footprint whose facades were seen from outside encloses its
 //!   interior, courtyards included (a courtyard's walls face into the courtyard, so rays stop
 //!   there).
@@ -261,13 +264,13 @@ pub fn enclosed_ground(
 const DIRECTION_BINS: usize = 8;
 
 /// The open air over the site (module docs): per pixel of a raster of `pixel_m` (keys
-/// `⌊x/pixel⌋, ⌊y/pixel⌋`), the lowest height, metres, at which a sight line from an imaged point
-/// to its pair's base station passes over it. Pixels no line crosses are absent.
+/// `⌊x/pixel⌋, ⌊y/pixel⌋`), the height, metres, under which sight lines from imaged points to two
+/// base stations pass over it ([`free_heights`]). Pixels fewer than two crossed are absent.
 #[derive(Clone, Debug, Default)]
 pub struct FreeHeights {
     /// Raster pixel, metres.
     pub pixel_m: f64,
-    /// Lowest sight-line height per pixel, metres.
+    /// Per pixel, the second lowest over the base stations of each one's lowest line, metres.
     pub lowest: std::collections::HashMap<(i64, i64), f64>,
 }
 
