@@ -295,8 +295,9 @@ pub struct ImagingSpec {
     /// How far past the region footprint's farthest corner the ground scatters, metres.
     #[serde(default = "default_ground_margin")]
     pub ground_margin_m: f32,
-    /// What the ground's scatterers stand for ([`GroundClutter`]): by default each is a point
-    /// echo of its area; `"developed"` makes the ground developed clutter.
+    /// What the ground's scatterers stand for ([`GroundClutter`]): by default developed clutter
+    /// (a Rayleigh patch, at least one per finest resolution cell); `"points"` makes each a point
+    /// echo of its area, the same echoes as the terrain model's.
     #[serde(default)]
     pub ground_clutter: GroundClutter,
     /// Objects whose surfaces are the ground truth (the building).
@@ -391,8 +392,9 @@ pub enum Backprojection {
 #[serde(rename_all = "snake_case")]
 pub enum GroundClutter {
     /// Each scatterer echoes as a point reflector of the area it stands for, at
-    /// `ground_density_per_m2`.
-    #[default]
+    /// `ground_density_per_m2`. The terrain model the detector holds voxels against is then the
+    /// same set of echoes as the data's ground, so the detector knows the clutter's very draw: a
+    /// world easier than a real one, kept to compare with earlier runs.
     Points,
     /// Developed clutter: the ground is rough on the wavelength's scale, so the echo of each
     /// patch is the sum of many unresolved facets with random phases, a circular complex
@@ -401,7 +403,10 @@ pub enum GroundClutter {
     /// independent Exp(1) draw, its phase the path's (random across patches at a 3 cm
     /// wavelength). The patches are at least one per finest resolution cell of the image
     /// ([`Scenario::ground_density_per_m2`]), so no cell of the ground is empty and every cell's
-    /// echo is Rayleigh whatever the number of patches in it.
+    /// echo is Rayleigh whatever the number of patches in it. The default: the terrain model
+    /// keeps each patch's mean power, so the detector knows the clutter's statistics, not its
+    /// draw, as a real one does.
+    #[default]
     Developed,
 }
 
@@ -1496,6 +1501,8 @@ mod tests {
     #[test]
     fn developed_ground_holds_a_patch_per_resolution_cell_and_is_its_own_digest() {
         let mut sc = factory();
+        assert_eq!(sc.imaging.ground_clutter, GroundClutter::Developed);
+        sc.imaging.ground_clutter = GroundClutter::Points;
         sc.imaging.ground_density_per_m2 = 2.0;
         assert_eq!(sc.ground_density_per_m2().unwrap(), 2.0);
         let d = sc.digest().unwrap();
@@ -1511,9 +1518,9 @@ mod tests {
         assert_eq!(sc.ground_density_per_m2().unwrap(), 40.0);
         // Spelled in the TOML as documented.
         let toml = include_str!("../../../fixtures/factory.toml")
-            .replace("[imaging]\n", "[imaging]\nground_clutter = \"developed\"\n");
+            .replace("[imaging]\n", "[imaging]\nground_clutter = \"points\"\n");
         let parsed = Scenario::from_toml_str(&toml).unwrap();
-        assert_eq!(parsed.imaging.ground_clutter, GroundClutter::Developed);
+        assert_eq!(parsed.imaging.ground_clutter, GroundClutter::Points);
     }
 
     #[test]
