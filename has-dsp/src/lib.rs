@@ -12,7 +12,8 @@
 //!
 //! Feature `std` (off by default; the host crates turn it on) changes how fast, never what: square
 //! roots in hardware (`sqrtps` instead of libm's scalar routine, both correctly rounded) and, on
-//! x86-64, the back-projection kernels dispatched at run time to an AVX2 build of the same code.
+//! x86-64, the back-projection kernels (and host loops handed to [`simd::run_simd`]) dispatched at
+//! run time to an AVX2 build of the same code.
 //! Every path computes the same IEEE operations in the same order (no FMA contraction), so images
 //! are bit-identical with and without it.
 #![cfg_attr(not(any(test, feature = "std")), no_std)]
@@ -32,6 +33,7 @@ pub mod linalg;
 pub mod ofdm;
 pub mod phase;
 pub mod range;
+pub mod simd;
 pub mod template;
 #[cfg(test)]
 mod test_util;

@@ -195,6 +195,44 @@ impl PulseKernel {
     /// [`Self::deposit`] given `fl = ⌊u⌋`, for a `u` that [`Self::deposits`].
     #[inline(always)]
     pub(crate) fn deposit_floored(&self, row: &mut [Complex32], u: f64, fl: f64, c: Complex32) {
+        let Some(span) = self.span(row.len(), u, fl) else {
+            return;
+        };
+        let out = &mut row[span.start..span.start + span.a_re.len()];
+        for (k, o) in out.iter_mut().enumerate() {
+            let (re, im) = span.tap(k, c);
+            o.re += re;
+            o.im += im;
+        }
+    }
+
+    /// [`Self::deposit_floored`] into a row held as separate real and imaginary parts (equally
+    /// long): the same operations, in a layout whose loop needs no shuffles.
+    #[inline(always)]
+    pub(crate) fn deposit_floored_split(
+        &self,
+        row_re: &mut [f32],
+        row_im: &mut [f32],
+        u: f64,
+        fl: f64,
+        c: Complex32,
+    ) {
+        let Some(span) = self.span(row_re.len(), u, fl) else {
+            return;
+        };
+        let n = span.a_re.len();
+        let out_re = &mut row_re[span.start..span.start + n];
+        let out_im = &mut row_im[span.start..span.start + n];
+        for k in 0..n {
+            let (re, im) = span.tap(k, c);
+            out_re[k] += re;
+            out_im[k] += im;
+        }
+    }
+
+    /// The taps of a scatterer at `u` (floor `fl`) that fall within a row of `len` bins.
+    #[inline(always)]
+    fn span(&self, len: usize, u: f64, fl: f64) -> Option<TapSpan<'_>> {
         let frac = u - fl;
         let pos = frac * self.oversample as f64;
         // `pos` is in [0, O]: the `i64` conversion is one instruction, `usize` a branchy one.
@@ -202,30 +240,44 @@ impl PulseKernel {
         let t = (pos - phi as f64) as f32;
         let taps = 2 * self.half;
         let first = fl as i64 - (self.half as i64 - 1);
-        let len = row.len() as i64;
+        let len = len as i64;
         if first >= len || first + taps as i64 <= 0 {
-            return;
+            return None;
         }
-        let (ra, rb) = (
-            phi * taps..(phi + 1) * taps,
-            (phi + 1) * taps..(phi + 2) * taps,
-        );
-        let (a_re, a_im) = (&self.table_re[ra.clone()], &self.table_im[ra]);
-        let (b_re, b_im) = (&self.table_re[rb.clone()], &self.table_im[rb]);
-        let s = 1.0 - t;
         let j0 = (-first).max(0) as usize;
         let j1 = ((len - first) as usize).min(taps);
-        let start = (first + j0 as i64) as usize;
-        let out = &mut row[start..start + (j1 - j0)];
-        let (a_re, a_im, b_re, b_im) = (&a_re[j0..j1], &a_im[j0..j1], &b_re[j0..j1], &b_im[j0..j1]);
-        let taps = a_re.iter().zip(a_im).zip(b_re.iter().zip(b_im));
-        for (o, ((&ar, &ai), (&br, &bi))) in out.iter_mut().zip(taps) {
-            // `o += c · (a·s + b·t)`, the operations of `Complex32`'s `*` and `+=`.
-            let v_re = ar * s + br * t;
-            let v_im = ai * s + bi * t;
-            o.re += c.re * v_re - c.im * v_im;
-            o.im += c.re * v_im + c.im * v_re;
-        }
+        let (a, b) = (phi * taps, (phi + 1) * taps);
+        Some(TapSpan {
+            start: (first + j0 as i64) as usize,
+            a_re: &self.table_re[a + j0..a + j1],
+            a_im: &self.table_im[a + j0..a + j1],
+            b_re: &self.table_re[b + j0..b + j1],
+            b_im: &self.table_im[b + j0..b + j1],
+            s: 1.0 - t,
+            t,
+        })
+    }
+}
+
+/// The taps one scatterer deposits: bins `start ..` of the row, the two adjacent sub-bin phases
+/// of the table and the interpolation weights between them.
+struct TapSpan<'a> {
+    start: usize,
+    a_re: &'a [f32],
+    a_im: &'a [f32],
+    b_re: &'a [f32],
+    b_im: &'a [f32],
+    s: f32,
+    t: f32,
+}
+
+impl TapSpan<'_> {
+    /// Tap `k` times `c`: `c · (a·s + b·t)`, the operations of `Complex32`'s `*`.
+    #[inline(always)]
+    fn tap(&self, k: usize, c: Complex32) -> (f32, f32) {
+        let v_re = self.a_re[k] * self.s + self.b_re[k] * self.t;
+        let v_im = self.a_im[k] * self.s + self.b_im[k] * self.t;
+        (c.re * v_re - c.im * v_im, c.re * v_im + c.im * v_re)
     }
 }
 

@@ -3,7 +3,8 @@
 //!
 //! Per call, everything that depends only on the transmitter (rV, θi, Fresnel, area, normal) is
 //! computed once per scatterer; per element only `rR`, `cos θs`, the phase and the pulse taps.
-//! Rayon runs across receive elements (one output row each). Geometry and phase are `f64`, taps
+//! Rayon runs across receive elements (one output row each), each row in the widest vector build
+//! the CPU runs ([`has_dsp::simd`]; the same bits). Geometry and phase are `f64`, taps
 //! and output `f32`.
 //!
 //! Noise ([`Noise`]) in (b) is complex white Gaussian, `E|n|² = σ²` per subcarrier, seeded: the
@@ -24,6 +25,7 @@ use super::noise::{noise_stream, ComplexGaussian};
 use super::{check_pos, EchoConfig, EchoError, PulseKernel, ScattererSet};
 use crate::propagation::{free_space_amplitude, reflection};
 use has_dsp::geometry::C_M_PER_S;
+use has_dsp::simd::{run_simd, SimdJob};
 
 /// A free point scatterer: its amplitude is used as given (no spreading, no facing test); only the
 /// path length `|p − tx| + |p − rx|` sets delay and phase.
@@ -186,6 +188,23 @@ fn receive_legs(
 const PHASOR_N: usize = 4096;
 /// Bound on the phasor table's error, relative.
 const PHASOR_ERR: f32 = 3e-7;
+
+/// [`EchoSynth::profile_row`] as a job for [`run_simd`]: the row's loops in the widest vector
+/// build the CPU runs, with the same bits.
+struct ProfileRow<'a> {
+    synth: &'a EchoSynth,
+    prep: &'a Prepared,
+    e: DVec3,
+    row: &'a mut [Complex32],
+}
+
+impl SimdJob for ProfileRow<'_> {
+    type Output = ();
+    #[inline(always)]
+    fn run(self) {
+        self.synth.profile_row(self.prep, self.e, self.row)
+    }
+}
 
 /// Echo synthesiser for one [`EchoConfig`] (owns the tabulated pulse).
 #[derive(Clone, Debug)]
@@ -369,15 +388,23 @@ impl EchoSynth {
     fn profiles_from(&self, prep: &Prepared, rx: &[Vec3], out: &mut [Complex32]) {
         out.par_chunks_mut(self.cfg.n_bins)
             .zip(rx.par_iter())
-            .for_each(|(row, &e)| self.profile_row(prep, e.as_dvec3(), row));
+            .for_each(|(row, &e)| {
+                run_simd(ProfileRow {
+                    synth: self,
+                    prep,
+                    e: e.as_dvec3(),
+                    row,
+                })
+            });
     }
 
     /// One element's profile (`row`, overwritten): receive legs a block at a time
     /// ([`receive_legs`], vectorised), then each path's phasor and pulse taps.
+    #[inline(always)]
     fn profile_row(&self, prep: &Prepared, e: DVec3, row: &mut [Complex32]) {
         let inv_dr = 1.0 / self.cfg.bin_spacing_m();
         let r0 = self.cfg.r0_m;
-        row.fill(Complex32::new(0.0, 0.0));
+        let (mut row_re, mut row_im) = (vec![0f32; row.len()], vec![0f32; row.len()]);
         let (mut r, mut scale, mut keep) = ([0f64; BLOCK], [0f32; BLOCK], [false; BLOCK]);
         // Per path: the fractional bin `u`, the carrier cycles, and their floors (exact below
         // `FLOOR_SMALL_MAX`, where pass B takes them; `floor_fast` above).
@@ -405,10 +432,18 @@ impl EchoSynth {
                     floor_fast(c)
                 };
                 // `|u| ≤ 1e15 < FLOOR_SMALL_MAX`: its floor is exact.
-                self.kernel
-                    .deposit_floored(row, u[k], u_fl[k], a * self.phasor_of(c, c_fl));
+                self.kernel.deposit_floored_split(
+                    &mut row_re,
+                    &mut row_im,
+                    u[k],
+                    u_fl[k],
+                    a * self.phasor_of(c, c_fl),
+                );
             }
             lo += n;
+        }
+        for ((z, re), im) in row.iter_mut().zip(row_re).zip(row_im) {
+            *z = Complex32::new(re, im);
         }
     }
 
