@@ -19,6 +19,7 @@ pub mod channel_experiment;
 pub mod disjoint_sets;
 pub mod echo;
 pub mod html;
+pub(crate) mod impairments;
 pub mod io;
 pub mod knn;
 pub mod linalg;

@@ -114,6 +114,14 @@ pub struct ReconstructArgs {
     /// `imaging.seed`: another draw of the same site, to see how much a figure owes to the draw.
     #[arg(long)]
     pub seed: Option<u64>,
+    /// Impair every pair with the `[impairments]` defaults (docs/scenario.md) when the scenario
+    /// has no such table: unsynchronised terminals, compensated by each base station's
+    /// line-of-sight reference.
+    #[arg(long)]
+    pub impairments: bool,
+    /// Leave the pairs' `[impairments]` uncompensated (no line-of-sight reference).
+    #[arg(long)]
+    pub no_compensation: bool,
 }
 
 impl ReconstructArgs {
@@ -141,6 +149,8 @@ impl ReconstructArgs {
             no_valleys: false,
             no_mesh: false,
             seed: None,
+            impairments: false,
+            no_compensation: false,
         }
     }
 }
@@ -170,7 +180,18 @@ fn load(args: &ReconstructArgs) -> Result<(Scenario, String)> {
     if let Some(seed) = args.seed {
         sc.imaging.seed = seed;
     }
-    if args.quick || args.backprojection.is_some() {
+    if args.impairments && sc.impairments.is_none() {
+        sc.impairments = Some(has_host::scenario::ImpairmentSpec::default());
+    }
+    if args.no_compensation {
+        match sc.impairments.as_mut() {
+            Some(imp) => imp.compensation = false,
+            None => anyhow::bail!(
+                "--no-compensation: the scenario has no [impairments] (add the table or --impairments)"
+            ),
+        }
+    }
+    if args.quick || args.backprojection.is_some() || args.impairments || args.no_compensation {
         sc.validate()?;
     }
     Ok((sc, name))

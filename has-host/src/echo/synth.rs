@@ -195,6 +195,7 @@ struct ProfileRow<'a> {
     synth: &'a EchoSynth,
     prep: &'a Prepared,
     e: DVec3,
+    r0_m: f64,
     row: &'a mut [Complex32],
 }
 
@@ -202,7 +203,8 @@ impl SimdJob for ProfileRow<'_> {
     type Output = ();
     #[inline(always)]
     fn run(self) {
-        self.synth.profile_row(self.prep, self.e, self.row)
+        self.synth
+            .profile_row(self.prep, self.e, self.r0_m, self.row)
     }
 }
 
@@ -385,7 +387,7 @@ impl EchoSynth {
         a + (b - a) * t
     }
 
-    fn profiles_from(&self, prep: &Prepared, rx: &[Vec3], out: &mut [Complex32]) {
+    fn profiles_from(&self, prep: &Prepared, rx: &[Vec3], r0_m: f64, out: &mut [Complex32]) {
         out.par_chunks_mut(self.cfg.n_bins)
             .zip(rx.par_iter())
             .for_each(|(row, &e)| {
@@ -393,6 +395,7 @@ impl EchoSynth {
                     synth: self,
                     prep,
                     e: e.as_dvec3(),
+                    r0_m,
                     row,
                 })
             });
@@ -401,9 +404,8 @@ impl EchoSynth {
     /// One element's profile (`row`, overwritten): receive legs a block at a time
     /// ([`receive_legs`], vectorised), then each path's phasor and pulse taps.
     #[inline(always)]
-    fn profile_row(&self, prep: &Prepared, e: DVec3, row: &mut [Complex32]) {
+    fn profile_row(&self, prep: &Prepared, e: DVec3, r0: f64, row: &mut [Complex32]) {
         let inv_dr = 1.0 / self.cfg.bin_spacing_m();
-        let r0 = self.cfg.r0_m;
         let (mut row_re, mut row_im) = (vec![0f32; row.len()], vec![0f32; row.len()]);
         let (mut r, mut scale, mut keep) = ([0f64; BLOCK], [0f32; BLOCK], [false; BLOCK]);
         // Per path: the fractional bin `u`, the carrier cycles, and their floors (exact below
@@ -480,7 +482,31 @@ impl EchoSynth {
         out: &mut [Complex32],
     ) -> Result<(), EchoError> {
         let prep = self.prepare_profiles(set, visible, tx, rx_elements, out)?;
-        self.profiles_from(&prep, rx_elements, out);
+        self.profiles_from(&prep, rx_elements, self.cfg.r0_m, out);
+        Ok(())
+    }
+
+    /// [`Self::synth_profiles`] as a receiver whose sampling clock runs `delay_m` of bistatic
+    /// path late sees them: every echo's envelope lies `delay_m` farther along the profile, its
+    /// carrier phase is unchanged (a timing offset moves the baseband, not the carrier). The
+    /// same bits as [`Self::synth_profiles`] at `delay_m = 0`.
+    ///
+    /// # Errors
+    /// As [`Self::synth_profiles`], and `InvalidParameter` for a `delay_m` that is not finite.
+    pub fn synth_profiles_delayed(
+        &self,
+        set: &ScattererSet,
+        visible: &[u32],
+        tx: Vec3,
+        rx_elements: &[Vec3],
+        delay_m: f64,
+        out: &mut [Complex32],
+    ) -> Result<(), EchoError> {
+        if !delay_m.is_finite() {
+            return Err(EchoError::invalid("delay_m", delay_m));
+        }
+        let prep = self.prepare_profiles(set, visible, tx, rx_elements, out)?;
+        self.profiles_from(&prep, rx_elements, self.cfg.r0_m - delay_m, out);
         Ok(())
     }
 
@@ -531,7 +557,7 @@ impl EchoSynth {
         check_elements(rx_elements)?;
         check_out(out.len(), rx_elements.len(), self.cfg.n_bins)?;
         let prep = self.prepare_points(points, tx)?;
-        self.profiles_from(&prep, rx_elements, out);
+        self.profiles_from(&prep, rx_elements, self.cfg.r0_m, out);
         Ok(())
     }
 

@@ -80,6 +80,7 @@ use super::sidelobes::{sidelobes, PairPsf};
 use super::world::World;
 use crate::echo::noise::ComplexGaussian;
 use crate::echo::{EchoConfig, EchoError, EchoSynth, Noise, ScattererSet, VisibilityCache};
+use crate::impairments::{PairSync, ReferenceRadio};
 use crate::scenario::{Backprojection, Detection, Scenario};
 use crate::scene::Scene;
 use crate::sensors::{pair_cell_m3, pair_resolution_m, PlanarArray, VirtualAperture};
@@ -125,6 +126,9 @@ pub enum ImagingError {
     /// An option the chosen back-projection does not support.
     #[error("{0}")]
     Unsupported(&'static str),
+    /// The `[impairments]` of a pair could not be drawn or compensated (one line).
+    #[error("{0}")]
+    Impairments(String),
 }
 
 /// Options of a run that are not part of the scenario.
@@ -301,6 +305,11 @@ fn add_noise(rows: &mut [Complex32], row_len: usize, var: f64, seed: u64, frame:
         });
 }
 
+/// The mean `|z|²` of a frame's profiles (0 for none): the signal power its SNR refers to.
+fn mean_power(out: &[Complex32]) -> f64 {
+    out.iter().map(|z| z.norm_sqr() as f64).sum::<f64>() / out.len().max(1) as f64
+}
+
 /// Produces the range-compressed frames of one pair.
 struct FrameSource<'a> {
     scene: &'a Scene,
@@ -316,6 +325,9 @@ struct FrameSource<'a> {
     snr_db: f64,
     seed: u64,
     raw: Option<RawOfdm>,
+    /// The pair's synchronisation errors and their compensation (`[impairments]`); `None` for
+    /// the ideal pair and for the terrain model, which is a prediction.
+    sync: Option<PairSync>,
     synth_s: f64,
     first_visible: usize,
 }
@@ -356,14 +368,33 @@ impl FrameSource<'_> {
         }
         let n_bins = self.synth.config().n_bins;
         match &self.raw {
+            None if self.sync.is_some() => {
+                if self.noise_var.is_none() {
+                    // The noise level is the ideal frame's, as for an ideal pair: a frame moved
+                    // out of its range window by the timing offset would lower it.
+                    self.synth.synth_profiles(self.set, visible, tx, rx, out)?;
+                    self.noise_var = Some(mean_power(out) / 10f64.powf(self.snr_db / 10.0));
+                }
+                let var = self.noise_var.unwrap_or(0.0);
+                let sync = self
+                    .sync
+                    .as_mut()
+                    .ok_or(ImagingError::Unsupported("impairments"))?;
+                let off = sync
+                    .residual(f, var, centre, scene)
+                    .map_err(ImagingError::Impairments)?;
+                self.synth
+                    .synth_profiles_delayed(self.set, visible, tx, rx, off.delay_m, out)?;
+                let rot = Complex32::from_polar(1.0, off.phase_rad as f32);
+                out.par_iter_mut().for_each(|z| *z *= rot);
+                add_noise(out, n_bins, var, self.seed, f);
+            }
             None => {
                 self.synth.synth_profiles(self.set, visible, tx, rx, out)?;
                 let var = match self.noise_var {
                     Some(v) => v,
                     None => {
-                        let p = out.iter().map(|z| z.norm_sqr() as f64).sum::<f64>()
-                            / out.len().max(1) as f64;
-                        let v = p / 10f64.powf(self.snr_db / 10.0);
+                        let v = mean_power(out) / 10f64.powf(self.snr_db / 10.0);
                         self.noise_var = Some(v);
                         v
                     }
@@ -397,9 +428,7 @@ impl FrameSource<'_> {
                 if self.noise_var.is_none() {
                     // The profile-domain noise power at the same SNR definition as the direct
                     // path (the terrain model's noise; the data's own noise is per subcarrier).
-                    let p = out.iter().map(|z| z.norm_sqr() as f64).sum::<f64>()
-                        / out.len().max(1) as f64;
-                    self.noise_var = Some(p / 10f64.powf(self.snr_db / 10.0));
+                    self.noise_var = Some(mean_power(out) / 10f64.powf(self.snr_db / 10.0));
                 }
             }
         }
@@ -473,6 +502,26 @@ fn frame_sources<'a>(
         None
     };
     let (scene, set) = (&world.scene, &world.scatterers);
+    let seed = im.seed ^ ((plan.bs as u64) << 32) ^ ((plan.aperture as u64) << 48);
+    let sync = match &sc.impairments {
+        None => None,
+        Some(_) if opts.raw_ofdm => {
+            return Err(ImagingError::Unsupported(
+                "[impairments] with raw OFDM synthesis: the direct profiles carry them",
+            ))
+        }
+        Some(spec) => {
+            let (_, tx_fine) = thinned_sensors(sc, geo, seed);
+            let radio = ReferenceRadio {
+                fc_hz: echo_cfg.fc_hz,
+                bandwidth_hz: echo_cfg.bandwidth_hz,
+                symbols: crate::echo::qpsk_symbols(n_sc, im.seed),
+                weights: echo_cfg.window.clone(),
+                elements: geo.array.rows * geo.array.cols,
+            };
+            Some(PairSync::new(spec, seed, &tx_fine, radio).map_err(ImagingError::Impairments)?)
+        }
+    };
     let src = FrameSource {
         scene,
         set,
@@ -483,8 +532,9 @@ fn frame_sources<'a>(
         in_front_of: 0,
         noise_var: None,
         snr_db: sc.radar.snr_db,
-        seed: im.seed ^ ((plan.bs as u64) << 32) ^ ((plan.aperture as u64) << 48),
+        seed,
         raw,
+        sync,
         synth_s: 0.0,
         first_visible: 0,
     };
@@ -502,6 +552,7 @@ fn frame_sources<'a>(
             snr_db: sc.radar.snr_db,
             seed: src.seed ^ MODEL_NOISE_SEED,
             raw: None,
+            sync: None,
             synth_s: 0.0,
             first_visible: 0,
         })

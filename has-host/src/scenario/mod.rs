@@ -12,10 +12,11 @@
 //! `--quick` preset.
 //!
 //! Submodules: [`scene`] (the `[scene]` table), [`channel`] (`[channel]`), [`localize`]
-//! (`[localize]`), [`error`].
+//! (`[localize]`), [`impairments`] (`[impairments]`), [`error`].
 
 pub mod channel;
 pub mod error;
+pub mod impairments;
 pub mod localize;
 pub mod scene;
 pub mod turn;
@@ -28,6 +29,7 @@ use serde::{Deserialize, Serialize};
 pub use channel::{ChannelOverrides, ChannelSpec};
 pub(crate) use error::one_line_toml_error;
 pub use error::{ScenarioError, TableFields};
+pub use impairments::ImpairmentSpec;
 pub use localize::{LocalizeOverrides, LocalizeSpec};
 pub use scene::{
     load_scene, load_scene_objects, AxisName, BuildingSpec, CylinderSpec, DirectionName,
@@ -70,6 +72,10 @@ pub struct Scenario {
     /// `[localize]`: the moving-target experiment (`has-sim localize`), if the scenario has one.
     #[serde(default)]
     pub localize: Option<LocalizeSpec>,
+    /// `[impairments]`: the pairs' synchronisation errors and their compensation
+    /// ([`impairments`]); absent, every pair is ideal.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub impairments: Option<ImpairmentSpec>,
     /// Directory of the scenario file (mesh paths resolve against it).
     #[serde(skip)]
     pub base_dir: PathBuf,
@@ -1045,6 +1051,9 @@ impl Scenario {
         if im.truth_objects.is_empty() {
             return Err(FIELDS.invalid("imaging.truth_objects", "[]", "at least one object name"));
         }
+        if let Some(imp) = &self.impairments {
+            imp.validate()?;
+        }
         Ok(())
     }
 
@@ -1545,6 +1554,43 @@ mod tests {
         let mut seed = sc;
         seed.imaging.seed += 1;
         assert_ne!(seed.digest().unwrap(), d);
+    }
+
+    #[test]
+    fn the_impairments_table_parses_with_its_defaults_and_names_a_bad_field() {
+        let toml = include_str!("../../../fixtures/factory.toml");
+        let ideal = Scenario::from_toml_str(toml).unwrap();
+        assert!(ideal.impairments.is_none());
+        let with =
+            Scenario::from_toml_str(&format!("{toml}\n[impairments]\ncfo_hz = 500\n")).unwrap();
+        let imp = with.impairments.clone().unwrap();
+        assert_eq!(imp.cfo_hz, 500.0);
+        assert_eq!(
+            ImpairmentSpec {
+                cfo_hz: 500.0,
+                ..imp.clone()
+            },
+            ImpairmentSpec {
+                cfo_hz: 500.0,
+                ..ImpairmentSpec::default()
+            }
+        );
+        // The table enters the digest; its absence leaves an ideal scenario's digest alone.
+        assert_ne!(with.digest().unwrap(), ideal.digest().unwrap());
+        let mut back = with.clone();
+        back.impairments = None;
+        assert_eq!(back.digest().unwrap(), ideal.digest().unwrap());
+        let bad = format!("{toml}\n[impairments]\ntiming_offset_ns = -1\n");
+        let e = Scenario::from_toml_str(&bad).unwrap_err().to_string();
+        assert!(
+            e.contains("impairments.timing_offset_ns") && e.contains("-1"),
+            "{e}"
+        );
+        let unknown = format!("{toml}\n[impairments]\nphase_noise = \"3gpp-c\"\n");
+        assert!(Scenario::from_toml_str(&unknown)
+            .unwrap_err()
+            .to_string()
+            .contains("phase_noise"));
     }
 
     #[test]

@@ -1,0 +1,116 @@
+//! The `[impairments]` table of a scenario file: what separates a terminal's frames from a base
+//! station's clock, and whether the base station compensates it. Absent, every pair is ideal
+//! (perfectly synchronised) and the run is bit for bit what it was without the table.
+//!
+//! Units as named in each field: nanoseconds, parts per million, hertz, metres per second. The
+//! table denies unknown fields; [`ImpairmentSpec::validate`] names the first bad field and its
+//! value (`impairments.<field>`). The defaults are those of a 3GPP NR terminal at 10 GHz after
+//! downlink synchronisation (TS 38.133 transmit timing error, TS 38.521 frequency error, a TCXO's
+//! wander); the processes they drive are in [`crate::impairments`].
+
+use serde::{Deserialize, Serialize};
+
+use super::{ScenarioError, TableFields};
+
+/// Fields of the `[impairments]` table named in this module's errors.
+const IMPAIRMENTS: TableFields = TableFields::new("impairments");
+
+/// `[impairments]`: the pair's synchronisation errors (module docs).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ImpairmentSpec {
+    /// Half-width of the uniform initial terminal→base-station timing offset per pair,
+    /// nanoseconds. Default 114.
+    #[serde(default = "default_timing_offset_ns")]
+    pub timing_offset_ns: f64,
+    /// Sampling-clock drift, parts per million of elapsed time. Default 0.1.
+    #[serde(default = "default_timing_drift_ppm")]
+    pub timing_drift_ppm: f64,
+    /// Standard deviation of the timing offset's random-walk step per frame, nanoseconds.
+    /// Default 0.2.
+    #[serde(default = "default_timing_walk_ns")]
+    pub timing_walk_ns: f64,
+    /// Half-width of the uniform residual carrier-frequency offset per pair, hertz (±0.1 ppm at
+    /// 10 GHz). Default 1000.
+    #[serde(default = "default_cfo_hz")]
+    pub cfo_hz: f64,
+    /// Oscillator wander: the carrier offset's random walk, Hz/√s. Default 10.
+    #[serde(default = "default_cfo_walk")]
+    pub cfo_walk_hz_per_sqrt_s: f64,
+    /// An independent local-oscillator phase per frame (uplink phase continuity is not
+    /// guaranteed between transmissions). Default true.
+    #[serde(default = "default_true")]
+    pub frame_phase: bool,
+    /// The terminals' speed along their tracks, m/s: it sets the time between frames. Default 10.
+    #[serde(default = "default_speed")]
+    pub terminal_speed_m_per_s: f64,
+    /// Whether each base station takes the terminal's line-of-sight path as its reference
+    /// ([`crate::impairments`]). Default true; `reconstruct --no-compensation` turns it off.
+    #[serde(default = "default_true")]
+    pub compensation: bool,
+    /// Seed of the draws. Default 1.
+    #[serde(default = "default_seed")]
+    pub seed: u64,
+}
+
+fn default_timing_offset_ns() -> f64 {
+    114.0
+}
+fn default_timing_drift_ppm() -> f64 {
+    0.1
+}
+fn default_timing_walk_ns() -> f64 {
+    0.2
+}
+fn default_cfo_hz() -> f64 {
+    1000.0
+}
+fn default_cfo_walk() -> f64 {
+    10.0
+}
+fn default_true() -> bool {
+    true
+}
+fn default_speed() -> f64 {
+    10.0
+}
+fn default_seed() -> u64 {
+    1
+}
+
+impl Default for ImpairmentSpec {
+    fn default() -> Self {
+        ImpairmentSpec {
+            timing_offset_ns: default_timing_offset_ns(),
+            timing_drift_ppm: default_timing_drift_ppm(),
+            timing_walk_ns: default_timing_walk_ns(),
+            cfo_hz: default_cfo_hz(),
+            cfo_walk_hz_per_sqrt_s: default_cfo_walk(),
+            frame_phase: true,
+            terminal_speed_m_per_s: default_speed(),
+            compensation: true,
+            seed: default_seed(),
+        }
+    }
+}
+
+impl ImpairmentSpec {
+    /// Checks every value (names the first bad field and its value).
+    ///
+    /// # Errors
+    /// [`ScenarioError::Invalid`] with the field `impairments.<name>`.
+    pub fn validate(&self) -> Result<(), ScenarioError> {
+        for (f, v, max) in [
+            ("timing_offset_ns", self.timing_offset_ns, 10_000.0),
+            ("timing_drift_ppm", self.timing_drift_ppm, 100.0),
+            ("timing_walk_ns", self.timing_walk_ns, 1_000.0),
+            ("cfo_hz", self.cfo_hz, 1e6),
+            ("cfo_walk_hz_per_sqrt_s", self.cfo_walk_hz_per_sqrt_s, 1e5),
+        ] {
+            if !(v.is_finite() && (0.0..=max).contains(&v)) {
+                return Err(IMPAIRMENTS.invalid(f, v, "finite, ≥ 0 and within its stated bound"));
+            }
+        }
+        IMPAIRMENTS.positive("terminal_speed_m_per_s", self.terminal_speed_m_per_s)
+    }
+}
