@@ -12,6 +12,10 @@
 //!   a random walk of `cfo_walk_hz_per_sqrt_s`, and with `frame_phase` an independent
 //!   local-oscillator phase `θ_f` per frame, uniform in `[0, 2π)`.
 //!
+//! - a position error `e_f`: the frame is sent from its reported position plus `e_f`
+//!   ([`crate::scenario::PositionError`]: a bias per terminal, a Gauss–Markov process and white
+//!   noise per axis), while imaging uses the reported position.
+//!
 //! Uncompensated, the phases alone make the frames incoherent and the timing offset (34 m of path
 //! at 114 ns) moves every echo out of the range the geometry assigns it.
 //!
@@ -19,11 +23,12 @@
 //! strongest echo of the frame, whose delay and carrier phase the geometry predicts from the
 //! terminal's position. Per frame, the panel's beam towards the terminal (all `E` elements
 //! coherently) gives the direct path's subcarriers `Y_k = S_k·√E·A·e^{jφ_f}·e^{−j2π fc r_d/c}·
-//! e^{−j2π s_k (r_d + cτ_f)/L} + n_k` (`A = λ/(4π r_d)`, `r_d` the terminal to the panel
-//! centre, noise `n_k` of the per-subcarrier power that gives the echoes' profile-bin noise,
+//! e^{−j2π s_k (r_d + cτ_f)/L} + n_k` (`A = λ/(4π r_d)`, `r_d` from where the terminal really
+//! was to the panel centre, noise `n_k` of the per-subcarrier power that gives the echoes' profile-bin noise,
 //! `σ_k² = σ_p²·(Σw)²/Σw²` for the compression weights `w`). has-dsp's
 //! [`has_dsp::direct_path::DirectPath`] measures `r̂` and `â` on it; against the prediction they
-//! give the frame's offsets `c·τ̂_f = r̂ − r_d` and `φ̂_f = arg â + 2π fc r_d/c`. Re-referencing
+//! give the frame's offsets `c·τ̂_f = r̂ − r_p` and `φ̂_f = arg â + 2π fc r_p/c`, `r_p` the path
+//! from the reported position. Re-referencing
 //! the frame is a linear phase across subcarriers and a common rotation, which commute with the
 //! echo synthesis exactly: the compensated frame is synthesised with the residual offsets
 //! `(cτ_f − cτ̂_f, φ_f − φ̂_f)` and its noise added after, as the same correction applied to
@@ -33,8 +38,10 @@
 //! line of sight is blocked keeps the estimate of the nearest frame before it that had one (or
 //! after, at the start of a track): its delay is then off by the walk since, and its phase by the
 //! frame's own oscillator phase, so with `frame_phase` such a frame adds incoherently. The echo
-//! frames carry no direct path (as in the ideal run), so nothing of it is left to cancel; the
-//! terminal's position is taken as exact.
+//! frames carry no direct path (as in the ideal run), so nothing of it is left to cancel. The
+//! prediction uses the reported position, so the reference also takes out the position error's
+//! share along the line of sight, `|t + e − c| − |t − c|`, from every echo; what the error adds
+//! to each echo's own transmit leg beyond that stays (autofocus's part, not done here).
 
 use std::f64::consts::TAU;
 
@@ -86,8 +93,10 @@ pub(crate) struct PairSync {
     /// estimates once the noise level is known.
     reference: Option<(ReferenceRadio, DirectPath, u64)>,
     estimates: Option<Vec<FrameOffset>>,
-    /// The transmit positions, one per frame.
+    /// The transmit positions as reported, one per frame.
     tx: Vec<Vec3>,
+    /// Where each frame was really sent from, relative to its reported position.
+    position_error: Vec<Vec3>,
 }
 
 impl PairSync {
@@ -99,6 +108,7 @@ impl PairSync {
     pub(crate) fn new(
         spec: &ImpairmentSpec,
         pair_seed: u64,
+        terminal_seed: u64,
         tx: &[Vec3],
         radio: ReferenceRadio,
     ) -> Result<Self, String> {
@@ -161,7 +171,14 @@ impl PairSync {
             reference,
             estimates: None,
             tx: tx.to_vec(),
+            position_error: position_errors(spec, terminal_seed, tx),
         })
+    }
+
+    /// Where frame `f` was really sent from, relative to its reported position (zero beyond the
+    /// track).
+    pub(crate) fn position_error(&self, f: usize) -> Vec3 {
+        self.position_error.get(f).copied().unwrap_or(Vec3::ZERO)
     }
 
     /// The offsets frame `f` is synthesised with: the true ones without compensation, their
@@ -223,7 +240,11 @@ impl PairSync {
                 measured.push(None);
                 continue;
             }
-            let r_d = f64::from(tx.distance(centre));
+            // The path as it is (from where the terminal really was) and as the geometry
+            // predicts it (from where it said it was).
+            let r_d =
+                (tx.as_dvec3() + self.position_error(f).as_dvec3()).distance(centre.as_dvec3());
+            let r_pred = f64::from(tx.distance(centre));
             let amp = (radio.elements as f64).sqrt()
                 * crate::propagation::free_space_amplitude(r_d, lambda);
             let carrier = (-TAU * r_d / lambda + truth.phase_rad).rem_euclid(TAU);
@@ -241,11 +262,11 @@ impl PairSync {
                 *yk = sk * path + noise.sample(&mut rng);
             }
             let est = dp
-                .estimate(&y, &radio.symbols, r_d)
+                .estimate(&y, &radio.symbols, r_pred)
                 .map_err(|e| format!("impairments: frame {f}: the direct path: {e}"))?;
-            let phase = f64::from(est.amplitude.arg()) + TAU * r_d / lambda;
+            let phase = f64::from(est.amplitude.arg()) + TAU * r_pred / lambda;
             measured.push(Some(FrameOffset {
-                delay_m: est.path_m - r_d,
+                delay_m: est.path_m - r_pred,
                 phase_rad: phase.rem_euclid(TAU),
             }));
         }
@@ -268,10 +289,46 @@ impl PairSync {
     }
 }
 
+/// Mixed into a terminal's seed for its position error's draws.
+const POSITION_SEED: u64 = 0x9051_7105_E7A0_5EED;
+
+/// The position error of each frame sent from `tx` (in track order) by one terminal: a bias, a
+/// first-order Gauss–Markov process and white noise per axis
+/// ([`crate::scenario::PositionError`]), the process stepped by the time between frames.
+fn position_errors(spec: &ImpairmentSpec, terminal_seed: u64, tx: &[Vec3]) -> Vec<Vec3> {
+    let st = spec.position_error.stats();
+    let mut rng = ChaCha8Rng::seed_from_u64(spec.seed ^ terminal_seed ^ POSITION_SEED);
+    let gauss3 = |rng: &mut ChaCha8Rng, sd: f64| {
+        let mut v = [0.0f64; 3];
+        for x in &mut v {
+            let n: f64 = StandardNormal.sample(rng);
+            *x = n * sd;
+        }
+        glam::DVec3::from(v)
+    };
+    let bias = gauss3(&mut rng, st.bias_m);
+    let mut gm = gauss3(&mut rng, st.gm_m);
+    let start = tx.first().copied().unwrap_or(Vec3::ZERO);
+    let mut t_prev = 0.0;
+    tx.iter()
+        .enumerate()
+        .map(|(f, p)| {
+            let t = f64::from(p.distance(start)) / spec.terminal_speed_m_per_s;
+            if f > 0 && st.gm_m > 0.0 {
+                let a = (-(t - t_prev).abs() / st.gm_tau_s).exp();
+                gm = gm * a + gauss3(&mut rng, st.gm_m * (1.0 - a * a).sqrt());
+            }
+            t_prev = t;
+            (bias + gm + gauss3(&mut rng, st.white_m)).as_vec3()
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
     use crate::material::Material;
+    use crate::scenario::PositionError;
 
     /// A radio of 1024 subcarriers over 400 MHz at 10 GHz, Hann-weighted, and a 32 × 32 panel.
     fn radio() -> ReferenceRadio {
@@ -310,6 +367,44 @@ mod tests {
         Scene::new(vec![b]).unwrap()
     }
 
+    /// The default impairments with the terminals' positions exact.
+    fn exact_positions() -> ImpairmentSpec {
+        ImpairmentSpec {
+            position_error: PositionError::Profile(crate::scenario::PositionProfile::None),
+            ..ImpairmentSpec::default()
+        }
+    }
+
+    #[test]
+    fn the_reference_removes_the_position_errors_share_along_the_line_of_sight() {
+        let (tx, centre) = track();
+        let spec = ImpairmentSpec::default();
+        let mut sync = PairSync::new(&spec, 3, 30, &tx, radio()).unwrap();
+        let scene = open_scene();
+        let lambda = C_M_PER_S / 10e9;
+        let mut worst = 0.0f64;
+        for (f, t) in tx.iter().enumerate() {
+            let e = sync.position_error(f);
+            worst = worst.max(f64::from(e.length()));
+            let dr = (t.as_dvec3() + e.as_dvec3()).distance(centre.as_dvec3())
+                - f64::from(t.distance(centre));
+            let res = sync.residual(f, 1e-30, centre, &scene).unwrap();
+            // What is left moves every echo back by the line-of-sight share of the error.
+            assert!(
+                (res.delay_m + dr).abs() < 1e-4,
+                "frame {f}: {res:?}, Δr {dr}"
+            );
+            let dphi = (res.phase_rad - TAU * dr / lambda + std::f64::consts::PI).rem_euclid(TAU)
+                - std::f64::consts::PI;
+            assert!(dphi.abs() < 0.02, "frame {f}: phase off by {dphi}");
+        }
+        // RTK: centimetres, not metres and not nothing.
+        assert!(
+            worst > 1e-3 && worst < 0.1,
+            "largest position error {worst} m"
+        );
+    }
+
     #[test]
     fn uncompensated_offsets_lie_within_their_stated_bounds_and_repeat_under_the_seed() {
         let (tx, centre) = track();
@@ -318,9 +413,9 @@ mod tests {
             ..ImpairmentSpec::default()
         };
         let scene = open_scene();
-        let mut a = PairSync::new(&spec, 7, &tx, radio()).unwrap();
-        let mut b = PairSync::new(&spec, 7, &tx, radio()).unwrap();
-        let mut other = PairSync::new(&spec, 8, &tx, radio()).unwrap();
+        let mut a = PairSync::new(&spec, 7, 70, &tx, radio()).unwrap();
+        let mut b = PairSync::new(&spec, 7, 70, &tx, radio()).unwrap();
+        let mut other = PairSync::new(&spec, 8, 80, &tx, radio()).unwrap();
         // 30 m at 10 m/s: 3 s, 0.3 µs of drift... at 0.1 ppm, 0.3 ns; the walk 0.2 ns × √60.
         let bound_m = C_M_PER_S * (114e-9 + 0.1e-6 * 3.0 + 5.0 * 0.2e-9 * 60f64.sqrt());
         let mut phases = Vec::new();
@@ -346,7 +441,7 @@ mod tests {
     #[test]
     fn the_line_of_sight_reference_leaves_its_cramer_rao_bound() {
         let (tx, centre) = track();
-        let spec = ImpairmentSpec::default();
+        let spec = exact_positions();
         let scene = open_scene();
         let r = radio();
         // Noise per profile bin such that the beam's direct path has 0 dB per subcarrier at the
@@ -359,7 +454,7 @@ mod tests {
             (a + f64::from(w), b + f64::from(w).powi(2))
         });
         let noise_var = a2 * sw2 / (sw * sw);
-        let mut sync = PairSync::new(&spec, 11, &tx, r.clone()).unwrap();
+        let mut sync = PairSync::new(&spec, 11, 110, &tx, r.clone()).unwrap();
         let dp = DirectPath::new(DirectPathConfig {
             n_subcarriers: 1024,
             bandwidth_hz: r.bandwidth_hz,
@@ -398,9 +493,9 @@ mod tests {
         let scene = Scene::new(vec![wall]).unwrap();
         let blocked: Vec<bool> = tx.iter().map(|&p| !scene.visible(p, centre)).collect();
         assert!(blocked.iter().any(|&b| b) && !blocked[0]);
-        let spec = ImpairmentSpec::default();
-        let mut sync = PairSync::new(&spec, 5, &tx, radio()).unwrap();
-        let mut open = PairSync::new(&spec, 5, &tx, radio()).unwrap();
+        let spec = exact_positions();
+        let mut sync = PairSync::new(&spec, 5, 50, &tx, radio()).unwrap();
+        let mut open = PairSync::new(&spec, 5, 50, &tx, radio()).unwrap();
         let free = open_scene();
         let truth = PairSync::new(
             &ImpairmentSpec {
@@ -408,6 +503,7 @@ mod tests {
                 ..spec
             },
             5,
+            50,
             &tx,
             radio(),
         )

@@ -206,6 +206,10 @@ pub struct PairStats {
     /// Voxels imaged past the lattice where the detections' grating-lobe aliases fall
     /// (`imaging.alias_test`, [`AliasImage`]).
     pub alias_voxels: usize,
+    /// Largest `|I|` of the coarse image (full band) over the region, in the data's units. The
+    /// coarse pass images the same voxels in every run of a site, so against the same pair's in
+    /// an ideal run this is the peak that `[impairments]` cost it.
+    pub coarse_peak: f32,
 }
 
 /// Per-pair constants derived from the scenario.
@@ -383,8 +387,16 @@ impl FrameSource<'_> {
                 let off = sync
                     .residual(f, var, centre, scene)
                     .map_err(ImagingError::Impairments)?;
-                self.synth
-                    .synth_profiles_delayed(self.set, visible, tx, rx, off.delay_m, out)?;
+                // Sent from where the terminal really was; imaged from where it said it was.
+                let tx_true = tx + sync.position_error(f);
+                self.synth.synth_profiles_delayed(
+                    self.set,
+                    visible,
+                    tx_true,
+                    rx,
+                    off.delay_m,
+                    out,
+                )?;
                 let rot = Complex32::from_polar(1.0, off.phase_rad as f32);
                 out.par_iter_mut().for_each(|z| *z *= rot);
                 add_noise(out, n_bins, var, self.seed, f);
@@ -519,7 +531,12 @@ fn frame_sources<'a>(
                 weights: echo_cfg.window.clone(),
                 elements: geo.array.rows * geo.array.cols,
             };
-            Some(PairSync::new(spec, seed, &tx_fine, radio).map_err(ImagingError::Impairments)?)
+            // The position error is the terminal's, whichever base station hears it.
+            let terminal_seed = im.seed ^ ((plan.aperture as u64) << 48);
+            Some(
+                PairSync::new(spec, seed, terminal_seed, &tx_fine, radio)
+                    .map_err(ImagingError::Impairments)?,
+            )
         }
     };
     let src = FrameSource {
@@ -1661,6 +1678,10 @@ fn coarse_pass(
     }
     let imaged: usize = runs.iter().map(|r| r.1).sum();
     stats.coarse_voxels = imaged;
+    stats.coarse_peak = cimg[..voxels]
+        .iter()
+        .map(|z| z.norm())
+        .fold(0.0f32, f32::max);
     let passes = if clutter_ref { 3 * bands } else { 1 };
     stats.backprojections += (passes * imaged * rx.len() * tx.len()) as f64;
     let coarse_in_region = |i: usize| cframe.touches_region(sc, i, Vec3::splat(cv));

@@ -1,5 +1,6 @@
 //! The `[impairments]` table of a scenario file: what separates a terminal's frames from a base
-//! station's clock, and whether the base station compensates it. Absent, every pair is ideal
+//! station's clock and from the terminal's reported track, and whether the base station
+//! compensates it. Absent, every pair is ideal
 //! (perfectly synchronised) and the run is bit for bit what it was without the table.
 //!
 //! Units as named in each field: nanoseconds, parts per million, hertz, metres per second. The
@@ -41,6 +42,10 @@ pub struct ImpairmentSpec {
     /// guaranteed between transmissions). Default true.
     #[serde(default = "default_true")]
     pub frame_phase: bool,
+    /// The terminals' position error: `"none"`, `"rtk"` (the default), `"degraded"` or a table
+    /// `{ bias_m, gm_m, gm_tau_s, white_m }` ([`PositionError`]).
+    #[serde(default)]
+    pub position_error: PositionError,
     /// The terminals' speed along their tracks, m/s: it sets the time between frames. Default 10.
     #[serde(default = "default_speed")]
     pub terminal_speed_m_per_s: f64,
@@ -87,6 +92,7 @@ impl Default for ImpairmentSpec {
             cfo_hz: default_cfo_hz(),
             cfo_walk_hz_per_sqrt_s: default_cfo_walk(),
             frame_phase: true,
+            position_error: PositionError::default(),
             terminal_speed_m_per_s: default_speed(),
             compensation: true,
             seed: default_seed(),
@@ -111,6 +117,82 @@ impl ImpairmentSpec {
                 return Err(IMPAIRMENTS.invalid(f, v, "finite, ≥ 0 and within its stated bound"));
             }
         }
+        let e = self.position_error.stats();
+        for (f, v) in [
+            ("position_error.bias_m", e.bias_m),
+            ("position_error.gm_m", e.gm_m),
+            ("position_error.white_m", e.white_m),
+        ] {
+            if !(v.is_finite() && (0.0..=10.0).contains(&v)) {
+                return Err(IMPAIRMENTS.invalid(f, v, "finite, in [0, 10] m"));
+            }
+        }
+        if e.gm_m > 0.0 {
+            IMPAIRMENTS.positive("position_error.gm_tau_s", e.gm_tau_s)?;
+        }
         IMPAIRMENTS.positive("terminal_speed_m_per_s", self.terminal_speed_m_per_s)
+    }
+}
+
+/// The error of a terminal's reported position, per axis: a bias drawn once per terminal, a
+/// first-order Gauss–Markov process (standard deviation `gm_m`, correlation time `gm_tau_s`) and
+/// white noise per frame, all Gaussian and independent across the three axes. The profiles of an
+/// RTK receiver and of a degraded fix.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged)]
+pub enum PositionError {
+    /// `"none"`, `"rtk"` or `"degraded"`.
+    Profile(PositionProfile),
+    /// The statistics given one by one.
+    Stats(PositionStats),
+}
+
+/// A named [`PositionError`] profile.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PositionProfile {
+    /// The position is exact.
+    None,
+    /// Bias 1 cm, Gauss–Markov 5 mm with τ 2 s, white 1 mm.
+    Rtk,
+    /// Bias 2 cm, Gauss–Markov 2 cm with τ 1 s, white 3 mm.
+    Degraded,
+}
+
+/// The statistics of a [`PositionError`], metres and seconds (standard deviations per axis).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PositionStats {
+    /// Bias drawn once per terminal.
+    pub bias_m: f64,
+    /// Gauss–Markov process.
+    pub gm_m: f64,
+    /// Its correlation time.
+    pub gm_tau_s: f64,
+    /// White noise per frame.
+    pub white_m: f64,
+}
+
+impl Default for PositionError {
+    fn default() -> Self {
+        PositionError::Profile(PositionProfile::Rtk)
+    }
+}
+
+impl PositionError {
+    /// The statistics of the profile or table.
+    pub fn stats(&self) -> PositionStats {
+        let s = |bias_m, gm_m, gm_tau_s, white_m| PositionStats {
+            bias_m,
+            gm_m,
+            gm_tau_s,
+            white_m,
+        };
+        match self {
+            PositionError::Profile(PositionProfile::None) => s(0.0, 0.0, 1.0, 0.0),
+            PositionError::Profile(PositionProfile::Rtk) => s(0.01, 0.005, 2.0, 0.001),
+            PositionError::Profile(PositionProfile::Degraded) => s(0.02, 0.02, 1.0, 0.003),
+            PositionError::Stats(st) => *st,
+        }
     }
 }

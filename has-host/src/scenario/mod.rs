@@ -29,7 +29,7 @@ use serde::{Deserialize, Serialize};
 pub use channel::{ChannelOverrides, ChannelSpec};
 pub(crate) use error::one_line_toml_error;
 pub use error::{ScenarioError, TableFields};
-pub use impairments::ImpairmentSpec;
+pub use impairments::{ImpairmentSpec, PositionError, PositionProfile, PositionStats};
 pub use localize::{LocalizeOverrides, LocalizeSpec};
 pub use scene::{
     load_scene, load_scene_objects, AxisName, BuildingSpec, CylinderSpec, DirectionName,
@@ -1586,6 +1586,23 @@ mod tests {
             e.contains("impairments.timing_offset_ns") && e.contains("-1"),
             "{e}"
         );
+        let degraded = format!("{toml}\n[impairments]\nposition_error = \"degraded\"\n");
+        let e = Scenario::from_toml_str(&degraded)
+            .unwrap()
+            .impairments
+            .unwrap();
+        assert_eq!(e.position_error.stats().gm_m, 0.02);
+        let table = format!(
+            "{toml}\n[impairments]\nposition_error = {{ bias_m = 0.1, gm_m = 0.0, gm_tau_s = 1.0, white_m = 0.0 }}\n"
+        );
+        let e = Scenario::from_toml_str(&table)
+            .unwrap()
+            .impairments
+            .unwrap();
+        assert_eq!(e.position_error.stats().bias_m, 0.1);
+        let bad = format!("{toml}\n[impairments]\nposition_error = {{ bias_m = -0.1, gm_m = 0.0, gm_tau_s = 1.0, white_m = 0.0 }}\n");
+        let e = Scenario::from_toml_str(&bad).unwrap_err().to_string();
+        assert!(e.contains("impairments.position_error.bias_m"), "{e}");
         let unknown = format!("{toml}\n[impairments]\nphase_noise = \"3gpp-c\"\n");
         assert!(Scenario::from_toml_str(&unknown)
             .unwrap_err()
