@@ -45,6 +45,13 @@ pub struct SuiteArgs {
     /// of a figure is the site's and how much one draw's.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u64).range(1..=100))]
     pub seeds: u64,
+    /// Every site with the `[impairments]` defaults where it has no such table (as
+    /// `reconstruct --impairments`).
+    #[arg(long)]
+    pub impairments: bool,
+    /// Leave every site's impairments uncompensated (as `reconstruct --no-compensation`).
+    #[arg(long, requires = "impairments")]
+    pub no_compensation: bool,
 }
 
 /// The files `suite` writes at the top of its output directory ([`crate::run_dir`]).
@@ -96,6 +103,7 @@ pub fn run(args: SuiteArgs) -> Result<()> {
                 let mut a =
                     ReconstructArgs::defaults(Some(site.scenario.clone()), &out, args.quick);
                 a.seed = seed;
+                (a.impairments, a.no_compensation) = (args.impairments, args.no_compensation);
                 crate::reconstruct_cmd::run(a).map(|r| (r.reconstruction, r.peak_rss_mib))
             });
             row.seed = seed;

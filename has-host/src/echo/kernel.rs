@@ -195,7 +195,8 @@ impl PulseKernel {
     /// [`Self::deposit`] given `fl = ⌊u⌋`, for a `u` that [`Self::deposits`].
     #[inline(always)]
     pub(crate) fn deposit_floored(&self, row: &mut [Complex32], u: f64, fl: f64, c: Complex32) {
-        let Some(span) = self.span(row.len(), u, fl) else {
+        let (phi, t, first) = self.tap_phase(u, fl);
+        let Some(span) = self.span(row.len(), phi, t, first) else {
             return;
         };
         let out = &mut row[span.start..span.start + span.a_re.len()];
@@ -207,17 +208,17 @@ impl PulseKernel {
     }
 
     /// [`Self::deposit_floored`] into a row held as separate real and imaginary parts (equally
-    /// long): the same operations, in a layout whose loop needs no shuffles.
+    /// long), given the scatterer's [`Self::tap_phase`]: the same operations, in a layout whose
+    /// loop needs no shuffles.
     #[inline(always)]
-    pub(crate) fn deposit_floored_split(
+    pub(crate) fn deposit_split(
         &self,
         row_re: &mut [f32],
         row_im: &mut [f32],
-        u: f64,
-        fl: f64,
+        (phi, t, first): (u32, f32, i64),
         c: Complex32,
     ) {
-        let Some(span) = self.span(row_re.len(), u, fl) else {
+        let Some(span) = self.span(row_re.len(), phi, t, first) else {
             return;
         };
         let n = span.a_re.len();
@@ -230,16 +231,24 @@ impl PulseKernel {
         }
     }
 
-    /// The taps of a scatterer at `u` (floor `fl`) that fall within a row of `len` bins.
+    /// Where a scatterer at `u` bins (floor `fl`) falls in the table: the sub-bin phase row `φ`,
+    /// the weight `t` toward row `φ + 1`, and the row's first bin. Branch-free and in 32-bit
+    /// conversions, so that a loop of it vectorises. `pos` lies in `[0, O]`; a floor beyond
+    /// `±2³¹` saturates, which leaves such a scatterer outside every row as before.
     #[inline(always)]
-    fn span(&self, len: usize, u: f64, fl: f64) -> Option<TapSpan<'_>> {
-        let frac = u - fl;
-        let pos = frac * self.oversample as f64;
-        // `pos` is in [0, O]: the `i64` conversion is one instruction, `usize` a branchy one.
-        let phi = (pos as i64 as usize).min(self.oversample - 1);
+    pub(crate) fn tap_phase(&self, u: f64, fl: f64) -> (u32, f32, i64) {
+        let pos = (u - fl) * self.oversample as f64;
+        let phi = (pos as i32).min(self.oversample as i32 - 1);
         let t = (pos - phi as f64) as f32;
+        (phi as u32, t, fl as i32 as i64 - (self.half as i64 - 1))
+    }
+
+    /// The taps of a scatterer at [`Self::tap_phase`] `(phi, t, first)` that fall within a row of
+    /// `len` bins.
+    #[inline(always)]
+    fn span(&self, len: usize, phi: u32, t: f32, first: i64) -> Option<TapSpan<'_>> {
+        let phi = phi as usize;
         let taps = 2 * self.half;
-        let first = fl as i64 - (self.half as i64 - 1);
         let len = len as i64;
         if first >= len || first + taps as i64 <= 0 {
             return None;

@@ -208,6 +208,16 @@ impl SimdJob for ProfileRow<'_> {
     }
 }
 
+/// Where `cycles` (floor `fl`) falls in the phasor table: entry `i` and the weight `t` toward
+/// `i + 1`. `x` lies in `[0, PHASOR_N]`; branch-free with a 32-bit conversion, so that a loop of
+/// it vectorises.
+#[inline(always)]
+fn phasor_index(cycles: f64, fl: f64) -> (u32, f32) {
+    let x = (cycles - fl) * PHASOR_N as f64;
+    let i = (x as i32).clamp(0, PHASOR_N as i32 - 1);
+    (i as u32, (x - i as f64) as f32)
+}
+
 /// Echo synthesiser for one [`EchoConfig`] (owns the tabulated pulse).
 #[derive(Clone, Debug)]
 pub struct EchoSynth {
@@ -379,10 +389,13 @@ impl EchoSynth {
     /// `e^{−j2π·cycles}` from the table, given `fl = ⌊cycles⌋`.
     #[inline(always)]
     fn phasor_of(&self, cycles: f64, fl: f64) -> Complex32 {
-        let x = (cycles - fl) * PHASOR_N as f64;
-        // `x` is in [0, PHASOR_N]: the `i64` conversion is one instruction, `usize` a branchy one.
-        let i = (x as i64 as usize).min(PHASOR_N - 1);
-        let t = (x - i as f64) as f32;
+        self.phasor_at(phasor_index(cycles, fl))
+    }
+
+    /// The table's phasor at [`phasor_index`] `(i, t)`: linear between entries `i` and `i + 1`.
+    #[inline(always)]
+    fn phasor_at(&self, (i, t): (u32, f32)) -> Complex32 {
+        let i = i as usize;
         let (a, b) = (self.phasor[i], self.phasor[i + 1]);
         a + (b - a) * t
     }
@@ -412,6 +425,9 @@ impl EchoSynth {
         // `FLOOR_SMALL_MAX`, where pass B takes them; `floor_fast` above).
         let (mut u, mut u_fl) = ([0f64; BLOCK], [0f64; BLOCK]);
         let (mut cyc, mut cyc_fl) = ([0f64; BLOCK], [0f64; BLOCK]);
+        // Per path: its place in the pulse table and in the phasor table.
+        let mut taps = [(0u32, 0f32, 0i64); BLOCK];
+        let mut phasor = [(0u32, 0f32); BLOCK];
         let mut lo = 0;
         while lo < prep.len() {
             let n = BLOCK.min(prep.len() - lo);
@@ -421,6 +437,8 @@ impl EchoSynth {
                 u_fl[k] = floor_small(u[k]);
                 cyc[k] = self.cycles(r[k]);
                 cyc_fl[k] = floor_small(cyc[k]);
+                taps[k] = self.kernel.tap_phase(u[k], u_fl[k]);
+                phasor[k] = phasor_index(cyc[k], cyc_fl[k]);
             }
             for k in 0..n {
                 if !keep[k] || !PulseKernel::deposits(u[k]) {
@@ -428,19 +446,14 @@ impl EchoSynth {
                 }
                 let a = prep.amp[lo + k] * scale[k];
                 let c = cyc[k];
-                let c_fl = if c.abs() < FLOOR_SMALL_MAX {
-                    cyc_fl[k]
+                let ph = if c.abs() < FLOOR_SMALL_MAX {
+                    self.phasor_at(phasor[k])
                 } else {
-                    floor_fast(c)
+                    self.phasor_of(c, floor_fast(c))
                 };
                 // `|u| ≤ 1e15 < FLOOR_SMALL_MAX`: its floor is exact.
-                self.kernel.deposit_floored_split(
-                    &mut row_re,
-                    &mut row_im,
-                    u[k],
-                    u_fl[k],
-                    a * self.phasor_of(c, c_fl),
-                );
+                self.kernel
+                    .deposit_split(&mut row_re, &mut row_im, taps[k], a * ph);
             }
             lo += n;
         }
