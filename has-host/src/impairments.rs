@@ -251,11 +251,8 @@ impl PairSync {
             let mut rng =
                 ChaCha8Rng::seed_from_u64(*seed ^ (f as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15));
             for (k, (yk, sk)) in y.iter_mut().zip(&radio.symbols).enumerate() {
-                let s_k = if k < n / 2 {
-                    k as f64
-                } else {
-                    k as f64 - n as f64
-                };
+                // The signed subcarrier index (an offset in units of the spacing).
+                let s_k = has_dsp::ofdm::subcarrier_offset_hz(k, n, 1.0);
                 let cycles = (s_k * (r_d + truth.delay_m) / unambiguous_m).rem_euclid(1.0);
                 let ph = carrier - TAU * cycles;
                 let path = Complex32::from_polar(amp as f32, ph as f32);

@@ -206,6 +206,20 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
             "coarse_voxel_m = 1.0\nsmear_centroid = \"yes\"",
         ),
     );
+    let imp_nan = write(
+        "imp_nan.toml",
+        &format!("{factory}\n[impairments]\ncfo_hz = nan\n"),
+    );
+    let imp_slow = write(
+        "imp_slow.toml",
+        &format!("{factory}\n[impairments]\nterminal_speed_m_per_s = 1e-30\n"),
+    );
+    let imp_bias = write(
+        "imp_bias.toml",
+        &format!(
+            "{factory}\n[impairments]\nposition_error = {{ bias_m = 1e30, gm_m = 0.0, gm_tau_s = 1.0, white_m = 0.0 }}\n"
+        ),
+    );
     let bad_clutter = write(
         "bad_clutter.toml",
         &edit(
@@ -813,6 +827,73 @@ fn every_bad_input_of_the_issue_ends_as_its_row_says() {
             0,
             "",
         ),
+        // `[impairments]`: each field bounded, named in the error; `--no-compensation` needs
+        // impairments to leave alone.
+        row(
+            "impairments: a NaN carrier offset",
+            &[
+                "reconstruct",
+                s(&imp_nan),
+                "--quick",
+                "--out",
+                s(&out("imp_nan")),
+            ],
+            1,
+            "impairments.cfo_hz",
+        )
+        .absent(&[&out("imp_nan")]),
+        row(
+            "impairments: a terminal at 1e-30 m/s",
+            &[
+                "reconstruct",
+                s(&imp_slow),
+                "--quick",
+                "--out",
+                s(&out("imp_slow")),
+            ],
+            1,
+            "impairments.terminal_speed_m_per_s",
+        )
+        .absent(&[&out("imp_slow")]),
+        row(
+            "impairments: a 1e30 m position bias",
+            &[
+                "reconstruct",
+                s(&imp_bias),
+                "--quick",
+                "--out",
+                s(&out("imp_bias")),
+            ],
+            1,
+            "impairments.position_error.bias_m",
+        )
+        .absent(&[&out("imp_bias")]),
+        row(
+            "--no-compensation without impairments",
+            &[
+                "reconstruct",
+                "--quick",
+                "--no-compensation",
+                "--out",
+                s(&out("no_comp")),
+            ],
+            1,
+            "--no-compensation",
+        )
+        .absent(&[&out("no_comp")]),
+        row(
+            "suite --no-compensation without --impairments",
+            &[
+                "suite",
+                "--quick",
+                "--no-compensation",
+                "--out",
+                s(&out("suite_nc")),
+            ],
+            2,
+            "--impairments",
+        )
+        .absent(&[&out("suite_nc")]),
         // `--shard I/N` needs whole numbers with 1 ≤ I ≤ N; refused before the output
         // directory is made.
         row(

@@ -130,7 +130,15 @@ impl ImpairmentSpec {
         if e.gm_m > 0.0 {
             IMPAIRMENTS.positive("position_error.gm_tau_s", e.gm_tau_s)?;
         }
-        IMPAIRMENTS.positive("terminal_speed_m_per_s", self.terminal_speed_m_per_s)
+        let v = self.terminal_speed_m_per_s;
+        if !(v.is_finite() && (0.01..=1000.0).contains(&v)) {
+            return Err(IMPAIRMENTS.invalid(
+                "terminal_speed_m_per_s",
+                v,
+                "finite, in [0.01, 1000] m/s",
+            ));
+        }
+        Ok(())
     }
 }
 
