@@ -1,6 +1,7 @@
 //! Fused points whose height a finer pair places elsewhere: the vertically smeared copies of a
 //! roof (or any surface that crosses the vertical) that pairs with a poor vertical resolution
-//! detect above and below it.
+//! detect above and below it, dropped where a finer pair resolves them from it and moved onto
+//! it where none does.
 //!
 //! **Why.** A pair places an echo in height no better than its vertical extent `e`
 //! (`√(J⁻¹)_zz` of its information matrix, [`super::sensors::vertical_extent_m`]): several metres
@@ -31,6 +32,24 @@
 //! test needs no threshold beyond each pair's own resolution and the bisector between the
 //! surfaces a column crosses and those it runs along.
 //!
+//! **Placements no pair resolves are one surface's.** Where the finer points in `p`'s column
+//! (within `p`'s own height cell, on a surface that crosses the vertical; finer as above: `e(q) ≤
+//! e(p)/2`, a cell that fits twice in `p`'s, so that `q`'s placement says where in `p`'s cell the
+//! surface is — between two coarse placements it would average one smear with another) all lie
+//! within their own extent of `p`, no pair resolves `p` from them: they are placements
+//! of one surface by pairs of different vertical resolution, each uncertain by its extent. The
+//! estimate of that surface's height from independent placements is their mean weighted by each
+//! one's information, `1/e²` ([`Height::Refined`]): a vehicle's pair (`e` ≈ 5 m) that placed a
+//! roof 2 m above where a UAV's pair (`e` ≈ 2 m at the quick preset's bandwidth) placed it
+//! moves 1.7 m down onto it. Dropping `p` instead would be wrong — the finer pair cannot say
+//! that it is not the surface — and keeping it where it is leaves the slab that its pair's
+//! resolution spreads above and below a bright roof, which the mesher closes into caps over the
+//! roof and sheets inside the building. Only a point on a surface that crosses the vertical
+//! itself moves (its own PCA normal within 45° of vertical, as `q`'s): a wall's sample under a
+//! roof's edge is a sample of the wall, not a copy of the roof. Only the height changes, and
+//! every point is averaged with the placements as fused, not as moved: the order of the points
+//! decides nothing.
+//!
 //! Units: metres, world frame, z up.
 
 use glam::Vec3;
@@ -42,6 +61,18 @@ use crate::mesh::normals::{pca_normals_over, Neighbourhood};
 /// Fewest neighbours of the PCA normal that decides whether a finer point's surface crosses the
 /// vertical (as the mesher's normals).
 pub const NORMAL_NEIGHBOURS: usize = 16;
+
+/// What the finer pairs say of one fused point's height (module docs).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Height {
+    /// No finer point in its column speaks to it: kept where its pairs placed it.
+    Kept,
+    /// A finer point in its column resolves it from the surface it is a copy of: dropped.
+    Dropped,
+    /// Finer points in its column that do not resolve it from their surface: the point is that
+    /// surface, at the information-weighted mean of its own height and theirs (metres).
+    Refined(f32),
+}
 
 /// Which points a finer point places elsewhere in height (module docs): `extents[i]` is point
 /// `i`'s vertical extent (metres; infinite or NaN: unknown, never a finer placement and never
@@ -56,8 +87,24 @@ pub fn placed_finer(
     voxel_m: f32,
     normal_radius_m: f32,
 ) -> Result<Vec<bool>, GeometryError> {
+    Ok(heights(points, extents, voxel_m, normal_radius_m)?
+        .into_iter()
+        .map(|h| h == Height::Dropped)
+        .collect())
+}
+
+/// Each point's [`Height`] (module docs; the arguments as [`placed_finer`]'s).
+///
+/// # Errors
+/// As [`placed_finer`].
+pub fn heights(
+    points: &[Vec3],
+    extents: &[f32],
+    voxel_m: f32,
+    normal_radius_m: f32,
+) -> Result<Vec<Height>, GeometryError> {
     if points.len() < 2 {
-        return Ok(vec![false; points.len()]);
+        return Ok(vec![Height::Kept; points.len()]);
     }
     let neighbourhood = Neighbourhood::Within {
         radius_m: normal_radius_m,
@@ -75,22 +122,39 @@ pub fn placed_finer(
         .map(|(i, &p)| {
             let e = extents[i];
             if !e.is_finite() {
-                return false;
+                return Height::Kept;
             }
             // The column's candidates: within the column's radius horizontally and e/2
             // vertically, all inside this sphere.
             let reach = column.hypot(0.5 * e);
-            index.within(p, reach).into_iter().any(|(j, _)| {
-                let j = j as usize;
+            let mut near = index.within(p, reach);
+            near.sort_unstable_by_key(|&(j, _)| j);
+            let finer = near.into_iter().map(|(j, _)| j as usize).filter(|&j| {
                 let q = points[j];
-                let dz = (p.z - q.z).abs();
                 j != i
                     && crosses[j]
                     && (q.x - p.x).hypot(q.y - p.y) <= column
-                    && dz <= 0.5 * e
+                    && (p.z - q.z).abs() <= 0.5 * e
                     && extents[j].is_finite()
-                    && dz > extents[j]
-            })
+                    && extents[j] <= 0.5 * e
+            });
+            // Information-weighted height: each placement weighs 1/extent².
+            let (mut num, mut den) = (p.z / (e * e), 1.0 / (e * e));
+            let mut refined = false;
+            for j in finer {
+                let (q, ej) = (points[j], extents[j]);
+                if (p.z - q.z).abs() > ej {
+                    return Height::Dropped;
+                }
+                num += q.z / (ej * ej);
+                den += 1.0 / (ej * ej);
+                refined = true;
+            }
+            if refined && crosses[i] {
+                Height::Refined(num / den)
+            } else {
+                Height::Kept
+            }
         })
         .collect())
 }
@@ -130,6 +194,42 @@ mod tests {
     }
 
     #[test]
+    fn a_copy_no_finer_pair_resolves_moves_to_the_weighted_height() {
+        // A finer pair's roof at 10 m (extent 2 m) and a coarse pair's copy 1.5 m above (extent
+        // 5 m): within the finer extent, so not resolved; its height is the 1/e²-weighted mean
+        // of its own and the finer placements in its column.
+        let mut points = roof(10.0);
+        let n = points.len();
+        points.extend(roof(11.5));
+        let mut extents = vec![2.0; n];
+        extents.extend(vec![5.0; n]);
+        // A 0.4 m voxel: the column (radius √2·0.4 m) holds the lattice's plus of five points.
+        let h = heights(&points, &extents, 0.4, 1.0).expect("points");
+        assert!(
+            h[..n].iter().all(|&h| h == Height::Kept),
+            "the finer roof stays"
+        );
+        let i = n + 10 * 20 + 10;
+        let (w_fine, w_own) = (1.0 / 4.0, 1.0 / 25.0);
+        let want = (11.5 * w_own + 5.0 * 10.0 * w_fine) / (w_own + 5.0 * w_fine);
+        match h[i] {
+            Height::Refined(z) => assert!((z - want).abs() < 1e-4, "{z} against {want}"),
+            other => panic!("{other:?}"),
+        }
+        // Away from the sheets' edges (where the 16 nearest points of a normal reach the other
+        // sheet), every copy moves onto the roof.
+        let interior = (3..17).flat_map(|a| (3..17).map(move |b| n + a * 20 + b));
+        assert!(interior
+            .map(|i| h[i])
+            .all(|h| matches!(h, Height::Refined(z) if z < 10.2)));
+        // The drop-only view keeps them all.
+        assert!(placed_finer(&points, &extents, 0.4, 1.0)
+            .expect("points")
+            .iter()
+            .all(|&d| !d));
+    }
+
+    #[test]
     fn a_wall_under_a_finer_pair_s_points_is_not_a_copy() {
         // A wall x = 0, 0–10 m high, 10 m long, sampled every 0.5 m by a coarse pair
         // (extent 5 m), and a finer pair's points on the same wall (extent 0.8 m) every metre.
@@ -145,6 +245,11 @@ mod tests {
         assert!(
             drop.iter().all(|&d| !d),
             "a wall's samples along the column stay"
+        );
+        let h = heights(&points, &extents, 0.5, 1.0).expect("points");
+        assert!(
+            h.iter().all(|&h| h == Height::Kept),
+            "and stay where they are"
         );
     }
 

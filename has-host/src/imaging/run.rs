@@ -31,7 +31,7 @@ use super::centroid::smear_to_centroid;
 use super::confirmation::{confirmed, FreeSpaceTest, PairCell, PairSight};
 use super::driver::{image_pair, survey_pair, ImagingError, PairImage, PairPlan, RunOptions};
 use super::facing::{own_surfaces, test_normals, SURFACE_POINTS};
-use super::finer_height::placed_finer;
+use super::finer_height::{heights, Height};
 use super::terrain_echo::{terrain_echoes, TerrainLayer};
 use super::world::{Terrain, World};
 use crate::scenario::{GroundClutter, Pairing, Scenario};
@@ -610,8 +610,11 @@ pub struct FusedCloud {
     /// ([`confirm`], [`super::confirmation`]), summed over the pairs.
     pub pair_ground_echoes: usize,
     /// Points dropped as copies of a surface a finer pair placed at another height
-    /// ([`drop_finer_heights`]).
+    /// ([`finer_heights`]).
     pub finer_heights: usize,
+    /// Points moved to the information-weighted height of the finer placements of their surface
+    /// ([`finer_heights`]).
+    pub refined_heights: usize,
 }
 
 impl FusedCloud {
@@ -932,9 +935,11 @@ impl PairLayers {
     }
 }
 
-/// The fused cloud without the points a finer pair places at another height
-/// (`imaging.finer_height_test`, [`super::finer_height`]); unchanged when off.
-pub fn drop_finer_heights(sc: &Scenario, plans: &[PairPlan], fused: FusedCloud) -> FusedCloud {
+/// The fused cloud without the points a finer pair places at another height, and with the points
+/// whose surface finer pairs placed within their height cell at the information-weighted height
+/// of those placements (`imaging.finer_height_test`, [`super::finer_height`]); unchanged when
+/// off.
+pub fn finer_heights(sc: &Scenario, plans: &[PairPlan], fused: FusedCloud) -> FusedCloud {
     if !sc.imaging.finer_height_test || fused.points.is_empty() {
         return fused;
     }
@@ -942,12 +947,19 @@ pub fn drop_finer_heights(sc: &Scenario, plans: &[PairPlan], fused: FusedCloud) 
     // The fused points are finite voxel positions; an index error leaves the cloud as it is.
     // Normals over a resolution cell, as the mesher's (imaging::surface).
     let radius = support_distance_m(sc, plans);
-    let Ok(drop) = placed_finer(&fused.points, &extents, sc.imaging.voxel_m, radius) else {
+    let Ok(h) = heights(&fused.points, &extents, sc.imaging.voxel_m, radius) else {
         return fused;
     };
-    let keep: Vec<bool> = drop.iter().map(|&d| !d).collect();
+    let keep: Vec<bool> = h.iter().map(|&h| h != Height::Dropped).collect();
+    let mut fused = fused;
+    for (p, h) in fused.points.iter_mut().zip(&h) {
+        if let Height::Refined(z) = *h {
+            p.z = z;
+        }
+    }
     FusedCloud {
-        finer_heights: drop.iter().filter(|&&d| d).count(),
+        finer_heights: h.iter().filter(|&&h| h == Height::Dropped).count(),
+        refined_heights: h.iter().filter(|h| matches!(h, Height::Refined(_))).count(),
         ..fused.retain(&keep)
     }
 }
@@ -1082,7 +1094,7 @@ pub fn run_imaging(
 
 /// The fused cloud of the pairs' images (one per plan, in order): each pair's slabs collapsed
 /// ([`smear_to_centroid`], `imaging.smear_centroid`), then [`fuse`], [`confirm`],
-/// [`drop_terrain_echoes`], [`drop_finer_heights`] — what [`run_imaging`] does after imaging,
+/// [`drop_terrain_echoes`], [`finer_heights`] — what [`run_imaging`] does after imaging,
 /// also for pair clouds imaged before (e.g. read back from a run's files).
 pub fn fuse_images(
     sc: &Scenario,
@@ -1116,7 +1128,7 @@ pub fn fuse_images(
     let fused = fuse(sc, &plans, &collapsed, sc.imaging.voxel_m);
     let fused = confirm(sc, world, &plans, &collapsed, fused);
     let fused = drop_terrain_echoes(sc, world, &plans, fused);
-    let fused = drop_finer_heights(sc, &plans, fused);
+    let fused = finer_heights(sc, &plans, fused);
     RunResult {
         plans,
         images,

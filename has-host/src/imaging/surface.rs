@@ -41,7 +41,9 @@
 //!   presets (`docs/journal/results.md`, "One mesh rule for every site"), where 0.25 also removed
 //!   interpolated true surface (the office's hidden passage) and no trim kept the caps (default
 //!   factory_site and street_row meshes worse than their clouds);
-//! - clipped to the imaging region's box, and to [`super::support_distance_m`] of the samples
+//! - clipped to the imaging region — its box, and the polygon drawn on the map where there is
+//!   one: nothing was imaged beyond it, and what Poisson closes there is the extrapolation of a
+//!   neighbour's smear — and to [`super::support_distance_m`] of the samples
 //!   (half the coarsest resolution cell: a fused point stands for a cell, farther is
 //!   extrapolation);
 //! - only the faces turned as the samples nearest them are kept
@@ -460,6 +462,8 @@ pub fn surface(
     }
     let normals = fit;
     let mut rec = reconstruct_oriented(&points, normals, Some(&weights), &params)?;
+    // Beyond the region's footprint nothing was imaged (module docs).
+    rec.mesh = rec.mesh.clip_to(|v| sc.in_region(v));
     if let Some(terrain) = terrain {
         // Under the known terrain, by more than the surface's own cell (module docs).
         let top = clip_box.1.z + 1.0;

@@ -288,6 +288,14 @@ impl TriMesh {
         Ok(out)
     }
 
+    /// Keeps the faces whose three vertices `inside` holds, drops the vertices no kept face uses:
+    /// the mesh cut back to a region that is not a box (an imaging region drawn on the map as a
+    /// polygon), outside which nothing was imaged.
+    pub fn clip_to(&self, inside: impl Fn(Vec3) -> bool + Sync) -> TriMesh {
+        let kept: Vec<bool> = self.vertices.par_iter().map(|&v| inside(v)).collect();
+        self.with_faces_where(|f| self.faces[f].iter().all(|&i| kept[i as usize]))
+    }
+
     /// Drops the faces whose three vertices all lie more than `depth_m` below `ground(v)`, the
     /// height of the known ground under vertex `v` (`None` where it is not known: kept), and
     /// the vertices no face uses. The ground is opaque and known: what the closed Poisson
@@ -767,6 +775,19 @@ mod tests {
         assert!(t
             .clip_to_box(Vec3::new(f32::NAN, 0.0, 0.0), Vec3::ONE)
             .is_err());
+    }
+
+    #[test]
+    fn clip_to_keeps_the_faces_wholly_inside_a_region() {
+        let t = tetra();
+        // x + y < 0.9 holds at the origin and the apex only, and every face uses vertex 1 or 2:
+        // nothing is left.
+        let c = t.clip_to(|v| v.x + v.y < 0.9);
+        assert!(c.faces.is_empty() && c.vertices.is_empty(), "{c:?}");
+        // Below the apex: as the box z ≤ 0.5.
+        let c = t.clip_to(|v| v.z < 0.5);
+        assert_eq!(c.faces, vec![[0, 2, 1]]);
+        assert_eq!(t.clip_to(|_| true), t);
     }
 
     #[test]

@@ -252,6 +252,9 @@ pub struct PointCloudReport {
     /// Points removed as copies of a surface a finer pair placed at another height
     /// (`imaging.finer_height_test`).
     pub finer_heights_removed: usize,
+    /// Points moved to the information-weighted height of the finer placements of their surface
+    /// (`imaging.finer_height_test`).
+    pub finer_heights_refined: usize,
 }
 
 /// What the ground truth is and how much of it the imaged pairs could see.
@@ -660,6 +663,7 @@ impl Imaged<'_> {
             terrain_echoes_removed: fused.terrain_echoes,
             pair_ground_echoes: fused.pair_ground_echoes,
             finer_heights_removed: fused.finer_heights,
+            finer_heights_refined: fused.refined_heights,
         };
         let any_pairing_pct = imaging::share_pct(&imaging::observable_truth(
             sc,

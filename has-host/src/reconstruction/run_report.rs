@@ -66,11 +66,12 @@ impl ReconstructRunReport {
         }
         writeln!(
             s,
-            "| points | {} ({} unconfirmed by the pairs that see them, {} terrain echoes, {} copies of a surface a finer pair placed at another height removed; {} of the pairs' detections were their own terrain echoes, which confirm nothing) | — |",
+            "| points | {} ({} unconfirmed by the pairs that see them, {} terrain echoes, {} copies of a surface a finer pair placed at another height removed, {} moved to the finer pairs' height of their surface; {} of the pairs' detections were their own terrain echoes, which confirm nothing) | — |",
             pc.metrics.points,
             pc.unconfirmed_removed,
             pc.terrain_echoes_removed,
             pc.finer_heights_removed,
+            pc.finer_heights_refined,
             pc.pair_ground_echoes
         )?;
         if let Some(m) = &r.mesh {

@@ -351,8 +351,9 @@ pub struct ImagingSpec {
     pub guard_band: bool,
     /// Drop fused points that a finer pair places at another height: copies of a roof (a
     /// surface crossing the vertical) within the vertical resolution of the coarse pairs that
-    /// detected them, which the finer pair resolves from its own placement
-    /// ([`crate::imaging::finer_height`]).
+    /// detected them, which the finer pair resolves from its own placement; and move such a
+    /// copy that no finer pair resolves to the information-weighted height of its surface's
+    /// placements ([`crate::imaging::finer_height`]).
     #[serde(default = "default_true")]
     pub finer_height_test: bool,
     /// Which pairs are imaged when `[[pairs]]` is not given, among the base stations whose
