@@ -74,29 +74,13 @@ pub enum Height {
     Refined(f32),
 }
 
-/// Which points a finer point places elsewhere in height (module docs): `extents[i]` is point
-/// `i`'s vertical extent (metres; infinite or NaN: unknown, never a finer placement and never
-/// dropped), `voxel_m` the imaging voxel, `normal_radius_m` the reach of the PCA normals.
+/// Each point's [`Height`] (module docs): `extents[i]` is point `i`'s vertical extent (metres;
+/// infinite or NaN: unknown, never a finer placement and never dropped), `voxel_m` the imaging
+/// voxel, `normal_radius_m` the reach of the PCA normals.
 ///
 /// # Errors
 /// [`GeometryError`] from the neighbour index (non-finite points; a radius not finite and
 /// positive; fewer points than [`NORMAL_NEIGHBOURS`] is fine).
-pub fn placed_finer(
-    points: &[Vec3],
-    extents: &[f32],
-    voxel_m: f32,
-    normal_radius_m: f32,
-) -> Result<Vec<bool>, GeometryError> {
-    Ok(heights(points, extents, voxel_m, normal_radius_m)?
-        .into_iter()
-        .map(|h| h == Height::Dropped)
-        .collect())
-}
-
-/// Each point's [`Height`] (module docs; the arguments as [`placed_finer`]'s).
-///
-/// # Errors
-/// As [`placed_finer`].
 pub fn heights(
     points: &[Vec3],
     extents: &[f32],
@@ -162,6 +146,19 @@ pub fn heights(
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Which points [`heights`] drops.
+    fn placed_finer(
+        points: &[Vec3],
+        extents: &[f32],
+        voxel_m: f32,
+        normal_radius_m: f32,
+    ) -> Result<Vec<bool>, GeometryError> {
+        Ok(heights(points, extents, voxel_m, normal_radius_m)?
+            .into_iter()
+            .map(|h| h == Height::Dropped)
+            .collect())
+    }
 
     /// A flat roof at 10 m sampled every 0.5 m over 10 × 10 m.
     fn roof(z: f32) -> Vec<Vec3> {

@@ -939,7 +939,7 @@ impl PairLayers {
 /// whose surface finer pairs placed within their height cell at the information-weighted height
 /// of those placements (`imaging.finer_height_test`, [`super::finer_height`]); unchanged when
 /// off.
-pub fn finer_heights(sc: &Scenario, plans: &[PairPlan], fused: FusedCloud) -> FusedCloud {
+pub fn finer_heights(sc: &Scenario, plans: &[PairPlan], mut fused: FusedCloud) -> FusedCloud {
     if !sc.imaging.finer_height_test || fused.points.is_empty() {
         return fused;
     }
@@ -951,7 +951,6 @@ pub fn finer_heights(sc: &Scenario, plans: &[PairPlan], fused: FusedCloud) -> Fu
         return fused;
     };
     let keep: Vec<bool> = h.iter().map(|&h| h != Height::Dropped).collect();
-    let mut fused = fused;
     for (p, h) in fused.points.iter_mut().zip(&h) {
         if let Height::Refined(z) = *h {
             p.z = z;

@@ -279,13 +279,7 @@ impl TriMesh {
                 });
             }
         }
-        let inside = |v: Vec3| v.cmpge(min).all() && v.cmple(max).all();
-        let out = self.with_faces_where(|f| {
-            self.faces[f]
-                .iter()
-                .all(|&v| inside(self.vertices[v as usize]))
-        });
-        Ok(out)
+        Ok(self.clip_to(|v| v.cmpge(min).all() && v.cmple(max).all()))
     }
 
     /// Keeps the faces whose three vertices `inside` holds, drops the vertices no kept face uses:
